@@ -1,0 +1,23 @@
+"""fcol: render mathematical surfaces straight from their definitions.
+
+Function surfaces w = f(u, v) by the floating horizon and floating column
+algorithms, terrain horizon maps with their sky light and shadows, and
+parametric surfaces by a Newton-tracked scan line — no triangle mesh in
+between. Every render reports its time and sample count; the benchmarks
+(``python -m fcol.bench``) report time against error.
+"""
+
+from __future__ import annotations
+
+from . import raster
+from ._fcol import ExpressionError, View, __version__, build_profile
+from .image import Image
+
+__all__ = [
+    "ExpressionError",
+    "Image",
+    "View",
+    "__version__",
+    "build_profile",
+    "raster",
+]

@@ -1,0 +1,125 @@
+//! Output buffers of a render (SPEC §2). Only the buffers asked for exist.
+//! All are row-major, row 0 on top; the binding layer moves them into NumPy
+//! arrays without copying.
+
+use crate::error::{FcolError, Result};
+
+/// Which buffers a caller asked for.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Outputs {
+    pub rgb: bool,
+    pub intensity: bool,
+    pub depth: bool,
+    pub normal: bool,
+    pub uv: bool,
+    pub side: bool,
+    pub mask: bool,
+    pub lines: bool,
+}
+
+impl Outputs {
+    pub const NAMES: [&'static str; 8] = [
+        "rgb",
+        "intensity",
+        "depth",
+        "normal",
+        "uv",
+        "side",
+        "mask",
+        "lines",
+    ];
+
+    /// Parse a list of buffer names; unknown or repeated names are errors.
+    pub fn from_names<S: AsRef<str>>(names: &[S]) -> Result<Outputs> {
+        let mut o = Outputs::default();
+        if names.is_empty() {
+            return Err(FcolError::value(
+                "outputs",
+                format!("ask for at least one buffer of {:?}", Self::NAMES),
+            ));
+        }
+        for n in names {
+            let flag = match n.as_ref() {
+                "rgb" => &mut o.rgb,
+                "intensity" => &mut o.intensity,
+                "depth" => &mut o.depth,
+                "normal" => &mut o.normal,
+                "uv" => &mut o.uv,
+                "side" => &mut o.side,
+                "mask" => &mut o.mask,
+                "lines" => &mut o.lines,
+                other => {
+                    return Err(FcolError::value(
+                        "outputs",
+                        format!("unknown buffer {other:?}; choose from {:?}", Self::NAMES),
+                    ))
+                }
+            };
+            if *flag {
+                return Err(FcolError::value(
+                    "outputs",
+                    format!("buffer {:?} named twice", n.as_ref()),
+                ));
+            }
+            *flag = true;
+        }
+        Ok(o)
+    }
+
+    /// Does any buffer need shading (intensity or colour)?
+    pub fn needs_shading(&self) -> bool {
+        self.rgb || self.intensity
+    }
+}
+
+/// The buffers of one render plus its counters.
+#[derive(Debug, Clone, Default)]
+pub struct Buffers {
+    pub width: usize,
+    pub height: usize,
+    /// (H, W, 3) colour; background colour where no surface.
+    pub rgb: Option<Vec<u8>>,
+    /// (H, W) shading intensity before colour; NaN background.
+    pub intensity: Option<Vec<f32>>,
+    /// (H, W) camera depth; NaN background.
+    pub depth: Option<Vec<f32>>,
+    /// (H, W, 3) unit normal in world axes; NaN background.
+    pub normal: Option<Vec<f32>>,
+    /// (H, W, 2) surface parameters (u, v); NaN background.
+    pub uv: Option<Vec<f32>>,
+    /// (H, W) +1 upper side, −1 under side, 0 none.
+    pub side: Option<Vec<i8>>,
+    /// (H, W) surface present.
+    pub mask: Option<Vec<bool>>,
+    /// (H, W) line drawing, 255 on lines.
+    pub lines: Option<Vec<u8>>,
+    /// Function evaluations made (the seed's Table 1 count).
+    pub samples: u64,
+    /// Renderer-specific counters (Newton iterations, failures, …).
+    pub stats: Vec<(String, f64)>,
+}
+
+impl Buffers {
+    /// Allocate the requested buffers filled with their background values.
+    pub fn new(width: usize, height: usize, outputs: &Outputs, background: [u8; 3]) -> Buffers {
+        let n = width * height;
+        Buffers {
+            width,
+            height,
+            rgb: outputs.rgb.then(|| background.repeat(n)),
+            intensity: outputs.intensity.then(|| vec![f32::NAN; n]),
+            depth: outputs.depth.then(|| vec![f32::NAN; n]),
+            normal: outputs.normal.then(|| vec![f32::NAN; 3 * n]),
+            uv: outputs.uv.then(|| vec![f32::NAN; 2 * n]),
+            side: outputs.side.then(|| vec![0i8; n]),
+            mask: outputs.mask.then(|| vec![false; n]),
+            lines: outputs.lines.then(|| vec![0u8; n]),
+            samples: 0,
+            stats: Vec::new(),
+        }
+    }
+
+    pub fn stat(&mut self, name: &str, value: f64) {
+        self.stats.push((name.to_string(), value));
+    }
+}

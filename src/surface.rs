@@ -1,0 +1,106 @@
+//! What a renderer needs of a surface. Sources (expressions, height grids,
+//! Python callables) implement these traits; renderers never know which.
+//! Non-finite values mark holes.
+
+use crate::error::{FcolError, Result};
+use glam::DVec3;
+
+/// A rectangle [u0, u1] × [v0, v1] of parameter space (u0 < u1, v0 < v1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Domain {
+    pub u0: f64,
+    pub u1: f64,
+    pub v0: f64,
+    pub v1: f64,
+}
+
+impl Domain {
+    pub fn new(u0: f64, u1: f64, v0: f64, v1: f64) -> Result<Domain> {
+        if !(u0.is_finite() && u1.is_finite() && v0.is_finite() && v1.is_finite()) {
+            return Err(FcolError::value("domain", "bounds must be finite"));
+        }
+        if !(u0 < u1) || !(v0 < v1) {
+            return Err(FcolError::value(
+                "domain",
+                format!("expected ((u0, u1), (v0, v1)) with u0 < u1 and v0 < v1, got (({u0}, {u1}), ({v0}, {v1}))"),
+            ));
+        }
+        Ok(Domain { u0, u1, v0, v1 })
+    }
+    #[inline]
+    pub fn contains(&self, u: f64, v: f64) -> bool {
+        u >= self.u0 && u <= self.u1 && v >= self.v0 && v <= self.v1
+    }
+}
+
+/// f and its first partial derivatives at a point.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HeightSample {
+    pub f: f64,
+    pub fu: f64,
+    pub fv: f64,
+}
+
+impl HeightSample {
+    pub fn is_finite(&self) -> bool {
+        self.f.is_finite() && self.fu.is_finite() && self.fv.is_finite()
+    }
+    /// Unit upper-side normal (−f_u, −f_v, 1)/‖·‖ (SPEC §2).
+    #[inline]
+    pub fn normal(&self) -> DVec3 {
+        DVec3::new(-self.fu, -self.fv, 1.0).normalize()
+    }
+}
+
+/// A function surface w = f(u, v) over its domain.
+pub trait HeightField: Sync {
+    fn domain(&self) -> Domain;
+
+    /// Evaluate f, f_u, f_v at many points (the batch form lets callable
+    /// sources make one call per batch). `out.len() == u.len() == v.len()`.
+    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]);
+
+    /// Evaluate at one point.
+    fn eval(&self, u: f64, v: f64) -> HeightSample {
+        let mut out = [HeightSample::default()];
+        self.eval_batch(&[u], &[v], &mut out);
+        out[0]
+    }
+
+    /// True when single-point evaluation is cheap (compiled expressions,
+    /// grids); false for sources that cross into Python per call.
+    fn cheap_point_eval(&self) -> bool {
+        true
+    }
+}
+
+/// A parametric surface point with first and second derivatives.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ParamSample {
+    pub p: DVec3,
+    pub pu: DVec3,
+    pub pv: DVec3,
+    pub puu: DVec3,
+    pub puv: DVec3,
+    pub pvv: DVec3,
+}
+
+impl ParamSample {
+    pub fn is_finite(&self) -> bool {
+        self.p.is_finite() && self.pu.is_finite() && self.pv.is_finite()
+    }
+}
+
+/// A parametric surface (X, Y, Z)(u, v) over its domain.
+pub trait ParametricSurface: Sync {
+    fn domain(&self) -> Domain;
+    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]);
+    fn eval(&self, u: f64, v: f64) -> ParamSample {
+        let mut out = [ParamSample::default()];
+        self.eval_batch(&[u], &[v], &mut out);
+        out[0]
+    }
+    fn cheap_point_eval(&self) -> bool {
+        true
+    }
+}
