@@ -104,3 +104,39 @@ pub trait ParametricSurface: Sync {
         true
     }
 }
+
+/// A height field from Rust closures (for tests and Rust users):
+/// `f(u, v) -> [f, f_u, f_v]`.
+pub struct FnHeight<F: Fn(f64, f64) -> [f64; 3] + Sync> {
+    pub domain: Domain,
+    pub f: F,
+}
+
+impl<F: Fn(f64, f64) -> [f64; 3] + Sync> HeightField for FnHeight<F> {
+    fn domain(&self) -> Domain {
+        self.domain
+    }
+    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
+        for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
+            let [f, fu, fv] = (self.f)(u, v);
+            *o = HeightSample { f, fu, fv };
+        }
+    }
+}
+
+/// A parametric surface from a Rust closure (for tests and Rust users).
+pub struct FnParametric<F: Fn(f64, f64) -> ParamSample + Sync> {
+    pub domain: Domain,
+    pub f: F,
+}
+
+impl<F: Fn(f64, f64) -> ParamSample + Sync> ParametricSurface for FnParametric<F> {
+    fn domain(&self) -> Domain {
+        self.domain
+    }
+    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
+        for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
+            *o = (self.f)(u, v);
+        }
+    }
+}

@@ -12,6 +12,7 @@ from __future__ import annotations
 from . import raster
 from ._fcol import ExpressionError, View, __version__, build_profile
 from .image import Image
+from .render import render
 
 __all__ = [
     "ExpressionError",
@@ -20,4 +21,5 @@ __all__ = [
     "__version__",
     "build_profile",
     "raster",
+    "render",
 ]

@@ -1,0 +1,48 @@
+"""`fcol.render`: one entry point for every surface renderer."""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+from . import _fcol
+from ._fcol import View
+from .image import Image
+
+
+def render(
+    surface: Any,
+    view: View,
+    width: int = 640,
+    height: int = 480,
+    *,
+    method: str | None = None,
+    outputs: str | Sequence[str] = ("rgb",),
+    **options: Any,
+) -> Image:
+    """Render ``surface`` seen through ``view`` into a ``width`` × ``height``
+    image holding only the buffers named in ``outputs`` (SPEC §2).
+
+    Function surfaces (``fcol.Function``, ``fcol.HeightGrid``) take
+    ``method="floating_column"`` (default) or ``"floating_horizon"``;
+    parametric surfaces (``fcol.Parametric``) take ``method="scanline"``.
+    Shading options shared by all: ``light`` (None = headlight, or a
+    direction (u, v, w) towards the light), ``ambient``, ``diffuse``,
+    ``specular``, ``shininess``, ``upper_color``, ``under_color``,
+    ``background``. Each method documents its own further options; an
+    unknown option is a ``TypeError`` naming it.
+    """
+    if not isinstance(view, View):
+        raise TypeError(f"view: expected fcol.View, got {type(view).__name__}")
+    for name, n in (("width", width), ("height", height)):
+        if isinstance(n, bool) or not isinstance(n, int):
+            raise TypeError(f"{name}: expected an int, got {type(n).__name__}")
+    parametric = getattr(_fcol, "Parametric", None)
+    if parametric is not None and isinstance(surface, parametric):
+        native = getattr(_fcol, "render_parametric")
+        method = method or "scanline"
+    else:
+        native = getattr(_fcol, "render_height", None)
+        if native is None:
+            raise NotImplementedError("this build of fcol has no function-surface renderer")
+        method = method or "floating_column"
+    return Image(**native(surface, view, width, height, method, outputs, options))
