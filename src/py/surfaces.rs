@@ -9,7 +9,7 @@
 //! batch into holes (NaN) and is kept; [`check_surface_errors`] re-raises it.
 
 use crate::error::FcolError;
-use crate::source::{ExprHeight, ExprParametric};
+use crate::source::{ExprHeight, ExprParametric, HeightGrid, Interpolation};
 use crate::surface::{Domain, HeightField, HeightSample, ParamSample, ParametricSurface};
 use glam::DVec3;
 use numpy::ndarray::{ArrayD, IxDyn};
@@ -234,7 +234,6 @@ impl PyCallables {
         }
     }
 
-    #[allow(dead_code)]
     fn take_error(&self) -> Option<PyErr> {
         self.error.lock().unwrap_or_else(|p| p.into_inner()).take()
     }
@@ -870,6 +869,227 @@ fn changed_callable(c: &PyCallables, changes: Vec<(String, f64)>) -> PyResult<Ti
 }
 
 // ---------------------------------------------------------------------------
+// fcol.HeightGrid
+
+/// A height grid: ``z[i, j]`` is the height at ``(u0 + j·du, v0 + i·dv)``
+/// (rows along v, row 0 at v0; SPEC §1), interpolated ``"bilinear"`` or
+/// ``"bicubic"`` (Keys' cubic convolution, a = −0.5, i.e. Catmull-Rom), with
+/// derivatives of the interpolant itself.
+///
+/// Place it with ``extent=(u0, u1, v0, v1)`` (the first and last sample
+/// positions; ``v0 > v1`` for a north-up raster whose row 0 is north) or
+/// with ``spacing=(du, dv)`` and ``origin=(u0, v0)`` (default (0, 0); a
+/// negative spacing flips the axis). ``z`` may have any integer or float
+/// dtype and any strides; NaN (or ±inf) is no data: a bilinear cell touching
+/// one is a hole, and a bicubic cell is a hole when any of the 16 samples
+/// of its kernel is. A single row or column is constant across its extent
+/// (or one spacing). Outside the grid the surface does not exist (NaN).
+///
+/// >>> import fcol, numpy as np
+/// >>> g = fcol.HeightGrid(np.array([[0, 1], [2, 3]], np.int16), extent=(0, 1, 0, 1))
+/// >>> float(g(0.5, 0.5)), [float(x) for x in g.gradient(0.25, 0.5)]
+/// (1.5, [1.0, 2.0])
+#[pyclass(name = "HeightGrid", module = "fcol._fcol", frozen)]
+pub struct PyHeightGrid {
+    grid: Arc<HeightGrid>,
+}
+
+#[pymethods]
+impl PyHeightGrid {
+    #[new]
+    #[pyo3(signature = (z, extent = None, *, spacing = None, origin = None, interpolation = "bilinear"))]
+    fn new(
+        py: Python<'_>,
+        z: &Bound<'_, PyAny>,
+        extent: Option<&Bound<'_, PyAny>>,
+        spacing: Option<&Bound<'_, PyAny>>,
+        origin: Option<&Bound<'_, PyAny>>,
+        interpolation: &str,
+    ) -> PyResult<Self> {
+        let interp = Interpolation::parse(interpolation)?;
+        let np = py.import("numpy")?;
+        let a = np.call_method1("asarray", (z,)).map_err(|e| {
+            PyTypeError::new_err(format!(
+                "z: expected a 2-D array of real numbers ({})",
+                e.value(py)
+            ))
+        })?;
+        let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+        if !matches!(kind.as_str(), "i" | "u" | "f") {
+            let dt = a.getattr("dtype")?.str()?.to_string();
+            return Err(PyTypeError::new_err(format!(
+                "z: expected real heights (an integer or float dtype), got dtype {dt}"
+            )));
+        }
+        let ndim: usize = a.getattr("ndim")?.extract()?;
+        if ndim != 2 {
+            let shape = a.getattr("shape")?.repr()?.to_string();
+            return Err(FcolError::value(
+                "z",
+                format!("must be 2-D (rows along v, columns along u), got shape {shape}"),
+            )
+            .into());
+        }
+        let a = a.call_method1("astype", ("float64",))?;
+        let arr: PyReadonlyArrayDyn<'_, f64> = a.extract()?;
+        let (ny, nx) = (arr.shape()[0], arr.shape()[1]);
+        if nx == 0 || ny == 0 {
+            return Err(FcolError::value(
+                "z",
+                format!("must have at least one row and one column, got shape ({ny}, {nx})"),
+            )
+            .into());
+        }
+        let data: Vec<f64> = arr.as_array().iter().copied().collect();
+        let pair = |o: &Bound<'_, PyAny>, name: &str| -> PyResult<(f64, f64)> {
+            o.extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "{name}: expected two numbers, got {}",
+                    type_name(o)
+                ))
+            })
+        };
+        let extent = extent.filter(|e| !e.is_none());
+        let spacing = spacing.filter(|e| !e.is_none());
+        let origin = origin.filter(|e| !e.is_none());
+        let (u0, du, v0, dv) = match (extent, spacing) {
+            (Some(e), None) => {
+                if origin.is_some() {
+                    return Err(FcolError::value(
+                        "origin",
+                        "origin goes with spacing=; extent= already places the grid",
+                    )
+                    .into());
+                }
+                let (u0, u1, v0, v1): (f64, f64, f64, f64) = e.extract().map_err(|_| {
+                    PyTypeError::new_err(format!(
+                        "extent: expected (u0, u1, v0, v1), got {}",
+                        e.repr().map(|r| r.to_string()).unwrap_or_default()
+                    ))
+                })?;
+                for (n, x) in [("u0", u0), ("u1", u1), ("v0", v0), ("v1", v1)] {
+                    if !x.is_finite() {
+                        return Err(FcolError::value("extent", format!("{n} must be finite, got {x}")).into());
+                    }
+                }
+                if u0 == u1 || v0 == v1 {
+                    return Err(FcolError::value(
+                        "extent",
+                        format!("u0 != u1 and v0 != v1 required, got ({u0}, {u1}, {v0}, {v1})"),
+                    )
+                    .into());
+                }
+                let step = |a: f64, b: f64, n: usize| if n > 1 { (b - a) / (n - 1) as f64 } else { b - a };
+                (u0, step(u0, u1, nx), v0, step(v0, v1, ny))
+            }
+            (None, Some(s)) => {
+                let (du, dv) = pair(s, "spacing")?;
+                let (u0, v0) = match origin {
+                    Some(o) => pair(o, "origin")?,
+                    None => (0.0, 0.0),
+                };
+                (u0, du, v0, dv)
+            }
+            (Some(_), Some(_)) => {
+                return Err(FcolError::value("extent", "give extent= or spacing=, not both").into())
+            }
+            (None, None) => {
+                return Err(FcolError::value(
+                    "extent",
+                    "place the grid with extent=(u0, u1, v0, v1) or spacing=(du, dv) [+ origin=(u0, v0)]",
+                )
+                .into())
+            }
+        };
+        let grid = HeightGrid::new(data, ny, nx, u0, du, v0, dv, interp)?;
+        Ok(PyHeightGrid {
+            grid: Arc::new(grid),
+        })
+    }
+
+    /// Interpolated heights at (u, v) (broadcast together), NaN in holes and
+    /// outside the grid.
+    fn __call__<'py>(
+        &self,
+        py: Python<'py>,
+        u: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (shape, u, v) = broadcast_uv(py, u, v)?;
+        let g = &self.grid;
+        let w = run::detached(py, || {
+            let mut w = vec![0.0; u.len()];
+            g.eval_value_batch(&u, &v, &mut w);
+            Ok(w)
+        })?;
+        shaped(py, &shape, w)
+    }
+
+    /// (f_u, f_v) of the interpolant at (u, v).
+    fn gradient<'py>(
+        &self,
+        py: Python<'py>,
+        u: &Bound<'py, PyAny>,
+        v: &Bound<'py, PyAny>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let (shape, u, v) = broadcast_uv(py, u, v)?;
+        let g = &self.grid;
+        let s = run::detached(py, || {
+            let mut s = vec![HeightSample::default(); u.len()];
+            g.eval_batch(&u, &v, &mut s);
+            Ok(s)
+        })?;
+        let fu = s.iter().map(|x| x.fu).collect();
+        let fv = s.iter().map(|x| x.fv).collect();
+        Ok((shaped(py, &shape, fu)?, shaped(py, &shape, fv)?))
+    }
+
+    /// The shape of z (rows, columns).
+    #[getter]
+    fn shape(&self) -> (usize, usize) {
+        self.grid.shape()
+    }
+
+    /// (u0, u1, v0, v1): the positions of the first and last samples (for
+    /// a single row or column, the span it covers).
+    #[getter]
+    fn extent(&self) -> (f64, f64, f64, f64) {
+        let (u0, du, v0, dv) = self.grid.geometry();
+        let (ny, nx) = self.grid.shape();
+        let last = |n: usize| n.max(2) as f64 - 1.0;
+        (u0, u0 + last(nx) * du, v0, v0 + last(ny) * dv)
+    }
+
+    /// (du, dv), signed.
+    #[getter]
+    fn spacing(&self) -> (f64, f64) {
+        let (_, du, _, dv) = self.grid.geometry();
+        (du, dv)
+    }
+
+    #[getter]
+    fn interpolation(&self) -> &'static str {
+        self.grid.interpolation().name()
+    }
+
+    /// ((u_min, u_max), (v_min, v_max)).
+    #[getter]
+    fn domain(&self) -> ((f64, f64), (f64, f64)) {
+        let d = self.grid.domain();
+        ((d.u0, d.u1), (d.v0, d.v1))
+    }
+
+    fn __repr__(&self) -> String {
+        let (ny, nx) = self.grid.shape();
+        let (u0, u1, v0, v1) = self.extent();
+        format!(
+            "HeightGrid(<{ny}×{nx}>, extent=({u0}, {u1}, {v0}, {v1}), interpolation={:?})",
+            self.grid.interpolation().name()
+        )
+    }
+}
+
+// ---------------------------------------------------------------------------
 // fcol.Parametric
 
 enum ParKind {
@@ -1163,10 +1383,12 @@ impl PyParametric {
 // conversions for the renderers
 
 /// The height field behind `surface` (`fcol.Function` or `fcol.HeightGrid`).
-#[allow(dead_code)] // used by the renderers' bindings
 pub fn height_field_from_py(obj: &Bound<'_, PyAny>) -> PyResult<DynHeight> {
     if let Ok(f) = obj.cast::<PyFunction>() {
         return Ok(f.get().dyn_field());
+    }
+    if let Ok(g) = obj.cast::<PyHeightGrid>() {
+        return Ok(g.get().grid.clone());
     }
     Err(PyTypeError::new_err(format!(
         "surface: expected fcol.Function or fcol.HeightGrid, got {}",
@@ -1189,7 +1411,6 @@ pub fn parametric_from_py(obj: &Bound<'_, PyAny>) -> PyResult<DynParam> {
 /// Re-raise the first exception a Python callable behind `surface` raised
 /// during a render (the render turned those batches into holes). A no-op
 /// for expressions and grids. Renderers call it after the core returns.
-#[allow(dead_code)] // used by the renderers' bindings
 pub fn check_surface_errors(obj: &Bound<'_, PyAny>) -> PyResult<()> {
     let err = if let Ok(f) = obj.cast::<PyFunction>() {
         match &f.get().kind {
@@ -1210,8 +1431,48 @@ pub fn check_surface_errors(obj: &Bound<'_, PyAny>) -> PyResult<()> {
     }
 }
 
+/// Test hook: evaluate any height surface through the renderers' path —
+/// [`height_field_from_py`], then `eval_batch` in chunks of `chunk` points
+/// on rayon worker threads with the GIL released — returning (f, f_u, f_v)
+/// as 1-D arrays, and re-raising a callable's error as a render would.
+#[pyfunction]
+#[pyo3(signature = (surface, u, v, chunk = 256))]
+fn _eval_height<'py>(
+    py: Python<'py>,
+    surface: &Bound<'py, PyAny>,
+    u: &Bound<'py, PyAny>,
+    v: &Bound<'py, PyAny>,
+    chunk: usize,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    use rayon::prelude::*;
+    let h = height_field_from_py(surface)?;
+    let (_, u, v) = broadcast_uv(py, u, v)?;
+    let chunk = chunk.max(1);
+    let s = run::cancellable(py, |cancel| {
+        let mut s = vec![HeightSample::default(); u.len()];
+        s.par_chunks_mut(chunk)
+            .zip(u.par_chunks(chunk).zip(v.par_chunks(chunk)))
+            .for_each(|(o, (u, v))| {
+                if !cancel.is_cancelled() {
+                    h.eval_batch(u, v, o)
+                }
+            });
+        cancel.check()?;
+        Ok(s)
+    })?;
+    check_surface_errors(surface)?;
+    let n = [s.len()];
+    Ok((
+        shaped(py, &n, s.iter().map(|x| x.f).collect())?,
+        shaped(py, &n, s.iter().map(|x| x.fu).collect())?,
+        shaped(py, &n, s.iter().map(|x| x.fv).collect())?,
+    ))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(_eval_height, m)?)?;
     m.add_class::<PyFunction>()?;
     m.add_class::<PyParametric>()?;
+    m.add_class::<PyHeightGrid>()?;
     Ok(())
 }

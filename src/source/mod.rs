@@ -2,5 +2,7 @@
 //! [`ExprParametric`]) and height grids ([`HeightGrid`]).
 
 mod expr;
+mod grid;
 
 pub use expr::{param_values, ExprHeight, ExprParametric};
+pub use grid::{keys, Axis, HeightGrid, Interpolation};
