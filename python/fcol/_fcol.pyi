@@ -131,3 +131,10 @@ class HeightGrid:
 def _eval_height(
     surface: Function | HeightGrid, u: npt.ArrayLike, v: npt.ArrayLike, chunk: int = 256
 ) -> tuple[_Arr, _Arr, _Arr]: ...
+def _time_height(
+    surface: Function | HeightGrid,
+    u: npt.ArrayLike,
+    v: npt.ArrayLike,
+    mode: Literal["batch", "point", "value"] = "batch",
+    repeat: int = 7,
+) -> float: ...

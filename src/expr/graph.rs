@@ -252,8 +252,14 @@ impl Graph {
             return self.konst(eval_un(op, x));
         }
         if op == Un::Neg {
-            if let Node::Un(Un::Neg, inner) = self.nodes[a as usize] {
-                return inner;
+            match self.nodes[a as usize] {
+                Node::Un(Un::Neg, inner) => return inner,
+                Node::Bin(Bin::Mul, k, x) if self.as_const(k).is_some() => {
+                    let c = -self.as_const(k).unwrap_or(0.0);
+                    let k = self.konst(c);
+                    return self.mul(k, x);
+                }
+                _ => {}
             }
         }
         self.intern(Node::Un(op, a))
@@ -312,6 +318,16 @@ impl Graph {
                 }
                 if cb == Some(-1.0) {
                     return self.neg(a);
+                }
+                // Signs move outwards: a·(−b) = −(a·b), so they end up
+                // folded into a constant factor or cancelled.
+                if let Node::Un(Un::Neg, nb) = self.nodes[b as usize] {
+                    let m = self.mul(a, nb);
+                    return self.neg(m);
+                }
+                if let Node::Un(Un::Neg, na) = self.nodes[a as usize] {
+                    let m = self.mul(na, b);
+                    return self.neg(m);
                 }
                 // Constant times constant times x folds.
                 if let (Some(x), Node::Bin(Bin::Mul, p, q)) = (ca, self.nodes[b as usize]) {

@@ -3,16 +3,23 @@
 //! can vectorise them; the single-point forms share the same scalar code,
 //! so both paths give identical results.
 
+use super::fastmath as fm;
 use super::graph::{eval_bin, eval_un, scalar, Bin, Un};
 
-#[inline]
+#[inline(always)]
 pub fn un1(op: Un, x: f64) -> f64 {
-    eval_un(op, x)
+    match op {
+        Un::Sin => fm::sin_cos(x).0,
+        Un::Cos => fm::sin_cos(x).1,
+        Un::Exp => fm::exp(x),
+        Un::Ln => fm::ln(x),
+        _ => eval_un(op, x),
+    }
 }
 
-#[inline]
+#[inline(always)]
 pub fn sin_cos1(x: f64) -> (f64, f64) {
-    x.sin_cos()
+    fm::sin_cos(x)
 }
 
 #[inline]
@@ -33,13 +40,27 @@ macro_rules! map1 {
     };
 }
 
+/// Vectorisable pass with the fast kernel, then a scalar fix-up of the
+/// (rare) arguments outside its range.
+macro_rules! fast1 {
+    ($a:expr, $d:expr, $fast:expr, $ok:expr, $slow:expr) => {{
+        map1!($a, $d, |x| $fast(x));
+        for (d, &x) in $d.iter_mut().zip($a) {
+            if !$ok(x) {
+                *d = $slow(x);
+            }
+        }
+    }};
+}
+
+#[inline(always)]
 pub fn un(op: Un, a: &[f64], d: &mut [f64]) {
     match op {
         Un::Neg => map1!(a, d, |x| -x),
-        Un::Sin => map1!(a, d, |x| x.sin()),
-        Un::Cos => map1!(a, d, |x| x.cos()),
-        Un::Exp => map1!(a, d, |x| x.exp()),
-        Un::Ln => map1!(a, d, |x| x.ln()),
+        Un::Sin => fast1!(a, d, |x| fm::sin_cos_fast(x).0, fm::sin_cos_ok, f64::sin),
+        Un::Cos => fast1!(a, d, |x| fm::sin_cos_fast(x).1, fm::sin_cos_ok, f64::cos),
+        Un::Exp => fast1!(a, d, fm::exp_fast, fm::exp_ok, f64::exp),
+        Un::Ln => fast1!(a, d, fm::ln_fast, fm::ln_ok, f64::ln),
         Un::Sqrt => map1!(a, d, |x| x.sqrt()),
         Un::Abs => map1!(a, d, |x| x.abs()),
         Un::Floor => map1!(a, d, |x| x.floor()),
@@ -49,12 +70,19 @@ pub fn un(op: Un, a: &[f64], d: &mut [f64]) {
     }
 }
 
+#[inline(always)]
 pub fn sin_cos(a: &[f64], s: &mut [f64], c: &mut [f64]) {
     for ((s, c), &x) in s.iter_mut().zip(c.iter_mut()).zip(a) {
-        (*s, *c) = sin_cos1(x);
+        (*s, *c) = fm::sin_cos_fast(x);
+    }
+    for ((s, c), &x) in s.iter_mut().zip(c.iter_mut()).zip(a) {
+        if !fm::sin_cos_ok(x) {
+            (*s, *c) = x.sin_cos();
+        }
     }
 }
 
+#[inline(always)]
 pub fn bin(op: Bin, a: &[f64], b: &[f64], d: &mut [f64]) {
     macro_rules! map2 {
         (|$x:ident, $y:ident| $body:expr) => {
@@ -74,6 +102,7 @@ pub fn bin(op: Bin, a: &[f64], b: &[f64], d: &mut [f64]) {
     }
 }
 
+#[inline(always)]
 pub fn powi(a: &[f64], n: i32, d: &mut [f64]) {
     match n {
         2 => map1!(a, d, |x| x * x),
@@ -83,6 +112,7 @@ pub fn powi(a: &[f64], n: i32, d: &mut [f64]) {
     }
 }
 
+#[inline(always)]
 pub fn powf(a: &[f64], k: f64, d: &mut [f64]) {
     map1!(a, d, |x| powf1(x, k));
 }

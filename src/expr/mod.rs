@@ -12,6 +12,7 @@
 //! NaN and ±inf from the arithmetic are returned as they are (the renderers
 //! treat them as holes).
 
+mod fastmath;
 mod graph;
 mod kernels;
 mod parser;

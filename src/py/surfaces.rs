@@ -1469,8 +1469,55 @@ fn _eval_height<'py>(
     ))
 }
 
+/// Benchmark hook: median nanoseconds per point of evaluating a height
+/// surface on one thread with the GIL released. `mode`: "batch" (f, f_u,
+/// f_v by `eval_batch`), "point" (the same, one `eval` per point), "value"
+/// (f alone, batched).
+#[pyfunction]
+#[pyo3(signature = (surface, u, v, mode = "batch", repeat = 7))]
+fn _time_height(
+    py: Python<'_>,
+    surface: &Bound<'_, PyAny>,
+    u: &Bound<'_, PyAny>,
+    v: &Bound<'_, PyAny>,
+    mode: &str,
+    repeat: usize,
+) -> PyResult<f64> {
+    use std::time::Instant;
+    let h = height_field_from_py(surface)?;
+    let (_, u, v) = broadcast_uv(py, u, v)?;
+    let n = u.len().max(1);
+    if !matches!(mode, "batch" | "point" | "value") {
+        return Err(FcolError::value("mode", "must be \"batch\", \"point\" or \"value\"").into());
+    }
+    run::detached(py, || {
+        let mut s = vec![HeightSample::default(); u.len()];
+        let mut w = vec![0.0; u.len()];
+        let mut times = Vec::new();
+        for _ in 0..repeat.max(1) + 1 {
+            let t0 = Instant::now();
+            match mode {
+                "batch" => h.eval_batch(&u, &v, &mut s),
+                "value" => h.eval_value_batch(&u, &v, &mut w),
+                _ => {
+                    for i in 0..u.len() {
+                        s[i] = h.eval(u[i], v[i]);
+                    }
+                }
+            }
+            times.push(t0.elapsed().as_secs_f64() * 1e9 / n as f64);
+            std::hint::black_box(&s);
+            std::hint::black_box(&w);
+        }
+        times.remove(0); // warm-up
+        times.sort_by(|a, b| a.total_cmp(b));
+        Ok(times[times.len() / 2])
+    })
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_eval_height, m)?)?;
+    m.add_function(wrap_pyfunction!(_time_height, m)?)?;
     m.add_class::<PyFunction>()?;
     m.add_class::<PyParametric>()?;
     m.add_class::<PyHeightGrid>()?;
