@@ -27,7 +27,7 @@ reference so colour images can be compared by SSIM.
 >>> view = fcol.View(90, 0, view_height=2.0)
 >>> ref = height_reference(lambda u, v: 0 * u + 0.25, lambda u, v: (0 * u, 0 * v),
 ...                        ((-1, 1), (-1, 1)), view, 8, 8, mesh=8)
->>> bool(ref.mask.all()), float(ref.depth[0, 0]), int(ref.side[0, 0])
+>>> bool(ref.mask.all()), round(float(ref.depth[0, 0]), 12), int(ref.side[0, 0])
 (True, -0.25, 1)
 """
 
