@@ -105,3 +105,27 @@ class Parametric:
     def params(self) -> dict[str, float]: ...
     @property
     def calls(self) -> int: ...
+
+# raster
+
+def raster_line(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_line_aa(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+def raster_polygon(
+    rows: npt.NDArray[np.float64],
+    cols: npt.NDArray[np.float64],
+    shape: tuple[int, int] | None = None,
+    rule: str = "evenodd",
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_triangles(
+    vertices: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64] | None,
+    height: int,
+    width: int,
+    cull_backfaces: bool = False,
+    perspective_correct: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int32]]: ...
