@@ -57,6 +57,7 @@ class View:
 _Domain = tuple[tuple[float, float], tuple[float, float]]
 _Arr = npt.NDArray[np.float64]
 
+@final
 class Function:
     def __new__(
         cls,
@@ -81,6 +82,7 @@ class Function:
     @property
     def calls(self) -> int: ...
 
+@final
 class Parametric:
     def __new__(
         cls,
