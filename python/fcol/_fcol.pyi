@@ -1,7 +1,7 @@
 """Type stubs of the native module fcol._fcol (hand-written; checked by
 ``make stubtest``)."""
 
-from typing import Any, Callable, Literal, Mapping
+from typing import Any, Callable, Literal, Mapping, final
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,7 @@ class ExpressionError(ValueError): ...
 
 _Vec3 = tuple[float, float, float]
 
+@final
 class View:
     def __new__(
         cls,
@@ -49,13 +50,14 @@ class View:
     def rays(
         self, width: int, height: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, value: object, /) -> bool: ...
 
 # --- surfaces: expressions, height grids, callables -------------------------
 
 _Domain = tuple[tuple[float, float], tuple[float, float]]
 _Arr = npt.NDArray[np.float64]
 
+@final
 class Function:
     def __new__(
         cls,
@@ -80,6 +82,7 @@ class Function:
     @property
     def calls(self) -> int: ...
 
+@final
 class Parametric:
     def __new__(
         cls,
@@ -105,6 +108,7 @@ class Parametric:
     @property
     def calls(self) -> int: ...
 
+@final
 class HeightGrid:
     def __new__(
         cls,
@@ -138,3 +142,27 @@ def _time_height(
     mode: Literal["batch", "point", "value"] = "batch",
     repeat: int = 7,
 ) -> float: ...
+
+# raster
+
+def raster_line(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_line_aa(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+def raster_polygon(
+    rows: npt.NDArray[np.float64],
+    cols: npt.NDArray[np.float64],
+    shape: tuple[int, int] | None = None,
+    rule: str = "evenodd",
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_triangles(
+    vertices: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64] | None,
+    height: int,
+    width: int,
+    cull_backfaces: bool = False,
+    perspective_correct: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int32]]: ...
