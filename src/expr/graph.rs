@@ -259,6 +259,16 @@ impl Graph {
                     let k = self.konst(c);
                     return self.mul(k, x);
                 }
+                Node::Bin(Bin::Div, x, k) if self.as_const(k).is_some() => {
+                    let c = -self.as_const(k).unwrap_or(0.0);
+                    let k = self.konst(c);
+                    return self.div(x, k);
+                }
+                Node::Bin(Bin::Div, k, x) if self.as_const(k).is_some() => {
+                    let c = -self.as_const(k).unwrap_or(0.0);
+                    let k = self.konst(c);
+                    return self.div(k, x);
+                }
                 _ => {}
             }
         }
@@ -281,6 +291,9 @@ impl Graph {
                 }
                 if cb == Some(0.0) {
                     return a;
+                }
+                if a == b {
+                    return self.mulc(2.0, a);
                 }
                 if let Node::Un(Un::Neg, nb) = self.nodes[b as usize] {
                     return self.bin(Bin::Sub, a, nb);
@@ -329,6 +342,24 @@ impl Graph {
                     let m = self.mul(na, b);
                     return self.neg(m);
                 }
+                // Constant factors move outwards: a·(k·x) = k·(a·x), so
+                // they meet and fold.
+                if ca.is_none() {
+                    if let Node::Bin(Bin::Mul, k, x) = self.nodes[b as usize] {
+                        if self.as_const(k).is_some() {
+                            let m = self.mul(a, x);
+                            return self.mul(k, m);
+                        }
+                    }
+                }
+                if cb.is_none() {
+                    if let Node::Bin(Bin::Mul, k, x) = self.nodes[a as usize] {
+                        if self.as_const(k).is_some() {
+                            let m = self.mul(x, b);
+                            return self.mul(k, m);
+                        }
+                    }
+                }
                 // Constant times constant times x folds.
                 if let (Some(x), Node::Bin(Bin::Mul, p, q)) = (ca, self.nodes[b as usize]) {
                     if let Some(y) = self.as_const(p) {
@@ -346,6 +377,14 @@ impl Graph {
                 }
                 if ca == Some(0.0) {
                     return self.konst(0.0);
+                }
+                if let Node::Un(Un::Neg, x) = self.nodes[a as usize] {
+                    let d = self.div(x, b);
+                    return self.neg(d);
+                }
+                if let Node::Un(Un::Neg, y) = self.nodes[b as usize] {
+                    let d = self.div(a, y);
+                    return self.neg(d);
                 }
             }
             Bin::Pow => {

@@ -347,6 +347,25 @@ mod tests {
     }
 
     #[test]
+    fn small_batches_match_points() {
+        let p = prog("exp(-(u*u + v*v)/4)*cos(3*u) - sqrt(abs(u*v)) + u**-2.5", 2);
+        for n in [1usize, 2, 3, 5, 255, 256, 257, 600] {
+            let u: Vec<f64> = (0..n).map(|i| 0.1 + i as f64 * 0.013).collect();
+            let v: Vec<f64> = (0..n).map(|i| 2.0 - i as f64 * 0.007).collect();
+            let mut cols = vec![vec![0.0; n]; 6];
+            let mut refs: Vec<&mut [f64]> = cols.iter_mut().map(|x| x.as_mut_slice()).collect();
+            p.eval_into(&u, &v, &mut refs);
+            let mut out = [0.0; 6];
+            for i in 0..n {
+                p.eval_point(u[i], v[i], &mut out);
+                for k in 0..6 {
+                    assert_eq!(out[k].to_bits(), cols[k][i].to_bits(), "n={n} i={i} k={k}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn errors_name_columns() {
         let col = |s: &str, params: &[&str]| match Compiled::new(&[s], params, 1) {
             Err(FcolError::Expression { col, .. }) => col,

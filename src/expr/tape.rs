@@ -62,6 +62,11 @@ pub struct Program {
 }
 
 const NONE: u32 = u32::MAX;
+const MAX_INLINE_OUT: usize = 24;
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Vec<f64>> = const { std::cell::RefCell::new(Vec::new()) };
+}
 
 impl Program {
     /// Emit a program computing `roots` of the (bound, parameter-free)
@@ -272,47 +277,48 @@ impl Program {
         self.outputs.len()
     }
 
-    /// Evaluate one chunk of `n <= CHUNK` points already copied into slots
-    /// 0 (u) and 1 (v) of `regs` (`nslots * CHUNK` values). On x86-64 with
+    /// Evaluate one chunk of `n <= stride` points already copied into slots
+    /// 0 (u) and 1 (v) of `regs` (`nslots * stride` values, slot s at
+    /// `s * stride`). On x86-64 with
     /// AVX2 the same code is compiled for 4-wide vectors (no fused
     /// multiply-add is ever used, so results are identical on every path).
-    fn run_chunk(&self, regs: &mut [f64], n: usize) {
+    fn run_chunk(&self, regs: &mut [f64], n: usize, stride: usize) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2 (checked above).
-                unsafe { self.run_chunk_avx2(regs, n) };
+                unsafe { self.run_chunk_avx2(regs, n, stride) };
                 return;
             }
         }
-        self.run_chunk_impl(regs, n)
+        self.run_chunk_impl(regs, n, stride)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn run_chunk_avx2(&self, regs: &mut [f64], n: usize) {
-        self.run_chunk_impl(regs, n)
+    unsafe fn run_chunk_avx2(&self, regs: &mut [f64], n: usize, stride: usize) {
+        self.run_chunk_impl(regs, n, stride)
     }
 
     #[inline(always)]
-    fn run_chunk_impl(&self, regs: &mut [f64], n: usize) {
-        debug_assert!(regs.len() >= self.nslots * CHUNK && n <= CHUNK);
+    fn run_chunk_impl(&self, regs: &mut [f64], n: usize, stride: usize) {
+        debug_assert!(regs.len() >= self.nslots * stride && n <= stride);
         let base = regs.as_mut_ptr();
         for ins in &self.instrs {
-            // SAFETY: slots are disjoint CHUNK-long ranges of `regs`, and
+            // SAFETY: slots are disjoint stride-long ranges of `regs`, and
             // the emitter never makes a destination alias an operand.
             let col = |s: u32| -> &[f64] {
-                unsafe { std::slice::from_raw_parts(base.add(s as usize * CHUNK), n) }
+                unsafe { std::slice::from_raw_parts(base.add(s as usize * stride), n) }
             };
             let d =
-                unsafe { std::slice::from_raw_parts_mut(base.add(ins.dst as usize * CHUNK), n) };
+                unsafe { std::slice::from_raw_parts_mut(base.add(ins.dst as usize * stride), n) };
             let k = ins.k;
             match ins.op {
                 Op::Fill => d.fill(k),
                 Op::Un(op) => kernels::un(op, col(ins.a), d),
                 Op::SinCos => {
                     let d2 = unsafe {
-                        std::slice::from_raw_parts_mut(base.add(ins.dst2 as usize * CHUNK), n)
+                        std::slice::from_raw_parts_mut(base.add(ins.dst2 as usize * stride), n)
                     };
                     kernels::sin_cos(col(ins.a), d, d2)
                 }
@@ -358,21 +364,43 @@ impl Program {
     /// `cols[k][i]` is output k at point `start + i`.
     pub fn eval_chunks(&self, u: &[f64], v: &[f64], mut sink: impl FnMut(usize, &[&[f64]])) {
         assert_eq!(u.len(), v.len());
-        let mut regs = vec![0.0f64; self.nslots * CHUNK];
-        let mut start = 0;
-        while start < u.len() {
-            let n = (u.len() - start).min(CHUNK);
-            regs[..n].copy_from_slice(&u[start..start + n]);
-            regs[CHUNK..CHUNK + n].copy_from_slice(&v[start..start + n]);
-            self.run_chunk(&mut regs, n);
-            let cols: Vec<&[f64]> = self
-                .outputs
-                .iter()
-                .map(|&s| &regs[s as usize * CHUNK..s as usize * CHUNK + n])
-                .collect();
-            sink(start, &cols);
-            start += n;
+        if u.is_empty() {
+            return;
         }
+        // Slots of min(n, CHUNK) points (a multiple of 4), in a per-thread
+        // scratch buffer reused across calls (no allocation per batch).
+        let stride = u.len().min(CHUNK).next_multiple_of(4);
+        SCRATCH.with(|cell| {
+            let mut guard = cell.try_borrow_mut();
+            let mut own = Vec::new();
+            let regs: &mut Vec<f64> = match guard {
+                Ok(ref mut g) => g,
+                Err(_) => &mut own, // re-entered from a sink: use a fresh buffer
+            };
+            if regs.len() < self.nslots * stride {
+                regs.resize(self.nslots * stride, 0.0);
+            }
+            let empty: &[f64] = &[];
+            let mut start = 0;
+            while start < u.len() {
+                let n = (u.len() - start).min(stride);
+                regs[..n].copy_from_slice(&u[start..start + n]);
+                regs[stride..stride + n].copy_from_slice(&v[start..start + n]);
+                self.run_chunk(regs, n, stride);
+                let col = |s: u32| &regs[s as usize * stride..s as usize * stride + n];
+                if self.outputs.len() <= MAX_INLINE_OUT {
+                    let mut cols = [empty; MAX_INLINE_OUT];
+                    for (c, &s) in cols.iter_mut().zip(&self.outputs) {
+                        *c = col(s);
+                    }
+                    sink(start, &cols[..self.outputs.len()]);
+                } else {
+                    let cols: Vec<&[f64]> = self.outputs.iter().map(|&s| col(s)).collect();
+                    sink(start, &cols);
+                }
+                start += n;
+            }
+        });
     }
 
     /// Evaluate at many points into structure-of-arrays outputs
