@@ -276,6 +276,14 @@ def test_callable_errors():
         F(np.zeros(100), 0.0)
     with pytest.raises(ZeroDivisionError):
         _fcol._eval_height(F, np.zeros(100), np.zeros(100))
+    # after the first failing batch of a render, the others are holes
+    # without calling Python again; the error is re-raised after the render
+    F2 = fcol.Function(counted(boom), domain=DOM)
+    for _ in range(2):
+        before = F2.calls
+        with pytest.raises(ZeroDivisionError):
+            _fcol._eval_height(F2, np.zeros(2000), np.zeros(2000), chunk=30)
+        assert 1 <= F2.calls - before < 10
     with pytest.raises(ValueError, match="shape"):
         fcol.Function(lambda u, v: np.zeros(3), domain=DOM)
     with pytest.raises(TypeError, match="real"):

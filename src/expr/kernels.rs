@@ -17,11 +17,6 @@ pub fn un1(op: Un, x: f64) -> f64 {
     }
 }
 
-#[inline(always)]
-pub fn sin_cos1(x: f64) -> (f64, f64) {
-    fm::sin_cos(x)
-}
-
 #[inline]
 pub fn bin1(op: Bin, a: f64, b: f64) -> f64 {
     eval_bin(op, a, b)

@@ -8,6 +8,7 @@
 //! and the loops vectorise. [`Program::eval_point`] is the one-point path
 //! (no allocation for tapes of up to 64 slots).
 
+use super::fastmath as fm;
 use super::graph::{scalar, Bin, Graph, Id, Node, Un};
 use super::kernels;
 
@@ -40,9 +41,80 @@ pub enum Op {
     Fill,
 }
 
+/// The one-point form of an operation: a flat code, so the single-point
+/// interpreter dispatches once per instruction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Pt {
+    Fill,
+    Neg,
+    Sin,
+    Cos,
+    Exp,
+    Ln,
+    Sqrt,
+    Abs,
+    OtherUn,
+    SinCos,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Min,
+    Max,
+    OtherBin,
+    AddK,
+    MulK,
+    SubKX,
+    DivKX,
+    DivXK,
+    Sqr,
+    PowI,
+    PowF,
+    Select,
+}
+
+impl Pt {
+    fn of(op: Op, k: f64) -> Pt {
+        match op {
+            Op::Fill => Pt::Fill,
+            Op::Un(u) => match u {
+                Un::Neg => Pt::Neg,
+                Un::Sin => Pt::Sin,
+                Un::Cos => Pt::Cos,
+                Un::Exp => Pt::Exp,
+                Un::Ln => Pt::Ln,
+                Un::Sqrt => Pt::Sqrt,
+                Un::Abs => Pt::Abs,
+                _ => Pt::OtherUn,
+            },
+            Op::SinCos => Pt::SinCos,
+            Op::Bin(b) => match b {
+                Bin::Add => Pt::Add,
+                Bin::Sub => Pt::Sub,
+                Bin::Mul => Pt::Mul,
+                Bin::Div => Pt::Div,
+                Bin::Min => Pt::Min,
+                Bin::Max => Pt::Max,
+                _ => Pt::OtherBin,
+            },
+            Op::AddK => Pt::AddK,
+            Op::MulK => Pt::MulK,
+            Op::SubKX => Pt::SubKX,
+            Op::DivKX => Pt::DivKX,
+            Op::DivXK => Pt::DivXK,
+            Op::PowI if k == 2.0 => Pt::Sqr,
+            Op::PowI => Pt::PowI,
+            Op::PowF => Pt::PowF,
+            Op::Select => Pt::Select,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 pub struct Instr {
     pub op: Op,
+    pub pt: Pt,
     pub dst: u32,
     pub dst2: u32,
     pub a: u32,
@@ -187,6 +259,7 @@ impl Program {
                 let s = |x: Id| slot[x as usize];
                 let mut ins = Instr {
                     op: Op::Fill,
+                    pt: Pt::Fill,
                     dst: alloc(&mut free),
                     dst2: NONE,
                     a: NONE,
@@ -263,6 +336,19 @@ impl Program {
                     }
                     last[o] = usize::MAX - 1; // freed once
                 }
+            }
+        }
+        // Unused operands read slot 0, so the one-point interpreter loads
+        // every operand without a test.
+        for ins in instrs.iter_mut() {
+            ins.pt = Pt::of(ins.op, ins.k);
+            for o in [&mut ins.a, &mut ins.b, &mut ins.c, &mut ins.e] {
+                if *o == NONE {
+                    *o = 0;
+                }
+            }
+            if ins.dst2 == NONE {
+                ins.dst2 = ins.dst;
             }
         }
         let outputs = roots.iter().map(|&r| slot[r as usize]).collect();
@@ -431,36 +517,57 @@ impl Program {
 
     #[inline]
     fn point_with(&self, r: &mut [f64], u: f64, v: f64, out: &mut [f64]) {
+        assert!(r.len() >= self.nslots);
         r[0] = u;
         r[1] = v;
+        let rp = r.as_mut_ptr();
+        // SAFETY: every slot index of the program is < nslots <= r.len()
+        // (the emitter numbers slots from 0 and replaces unused operands
+        // by 0), checked by the assertion above.
+        let get = |s: u32| unsafe { *rp.add(s as usize) };
         for ins in &self.instrs {
-            let a = if ins.a != NONE {
-                r[ins.a as usize]
-            } else {
-                0.0
-            };
+            let a = get(ins.a);
+            let b = get(ins.b);
             let k = ins.k;
-            let x = match ins.op {
-                Op::Fill => k,
-                Op::Un(op) => kernels::un1(op, a),
-                Op::SinCos => {
-                    let (s, c) = kernels::sin_cos1(a);
-                    r[ins.dst2 as usize] = c;
+            let x = match ins.pt {
+                Pt::Fill => k,
+                Pt::Neg => -a,
+                Pt::Sin => fm::sin_cos(a).0,
+                Pt::Cos => fm::sin_cos(a).1,
+                Pt::Exp => fm::exp(a),
+                Pt::Ln => fm::ln(a),
+                Pt::Sqrt => a.sqrt(),
+                Pt::Abs => a.abs(),
+                Pt::OtherUn => match ins.op {
+                    Op::Un(op) => kernels::un1(op, a),
+                    _ => unreachable!(),
+                },
+                Pt::SinCos => {
+                    let (s, c) = fm::sin_cos(a);
+                    unsafe { *rp.add(ins.dst2 as usize) = c };
                     s
                 }
-                Op::Bin(op) => kernels::bin1(op, a, r[ins.b as usize]),
-                Op::AddK => a + k,
-                Op::MulK => a * k,
-                Op::SubKX => k - a,
-                Op::DivKX => k / a,
-                Op::DivXK => a / k,
-                Op::PowI => scalar::powi(a, k as i32),
-                Op::PowF => kernels::powf1(a, k),
-                Op::Select => {
-                    scalar::select(a, r[ins.b as usize], r[ins.c as usize], r[ins.e as usize])
-                }
+                Pt::Add => a + b,
+                Pt::Sub => a - b,
+                Pt::Mul => a * b,
+                Pt::Div => a / b,
+                Pt::Min => scalar::min(a, b),
+                Pt::Max => scalar::max(a, b),
+                Pt::OtherBin => match ins.op {
+                    Op::Bin(op) => kernels::bin1(op, a, b),
+                    _ => unreachable!(),
+                },
+                Pt::AddK => a + k,
+                Pt::MulK => a * k,
+                Pt::SubKX => k - a,
+                Pt::DivKX => k / a,
+                Pt::DivXK => a / k,
+                Pt::Sqr => a * a,
+                Pt::PowI => scalar::powi(a, k as i32),
+                Pt::PowF => kernels::powf1(a, k),
+                Pt::Select => scalar::select(a, b, get(ins.c), get(ins.e)),
             };
-            r[ins.dst as usize] = x;
+            unsafe { *rp.add(ins.dst as usize) = x };
         }
         for (o, &s) in out.iter_mut().zip(&self.outputs) {
             *o = r[s as usize];

@@ -17,7 +17,7 @@ use numpy::{IntoPyArray, PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use super::run;
@@ -183,6 +183,7 @@ struct PyCallables {
     params: Vec<(String, f64)>,
     calls: AtomicUsize,
     error: Mutex<Option<PyErr>>,
+    failed: AtomicBool,
 }
 
 impl PyCallables {
@@ -193,6 +194,7 @@ impl PyCallables {
             params,
             calls: AtomicUsize::new(0),
             error: Mutex::new(None),
+            failed: AtomicBool::new(false),
         }
     }
 
@@ -232,9 +234,18 @@ impl PyCallables {
         if g.is_none() {
             *g = Some(e);
         }
+        self.failed.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether a batch already failed in this render: later batches are
+    /// holes without calling Python again (a render interrupted by Ctrl-C
+    /// inside the callable, or a broken callable, then ends quickly).
+    fn failed(&self) -> bool {
+        self.failed.load(Ordering::Relaxed)
     }
 
     fn take_error(&self) -> Option<PyErr> {
+        self.failed.store(false, Ordering::Relaxed);
         self.error.lock().unwrap_or_else(|p| p.into_inner()).take()
     }
 }
@@ -354,16 +365,20 @@ impl HeightField for CallableHeight {
         self.domain
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
+        let nan = HeightSample {
+            f: f64::NAN,
+            fu: f64::NAN,
+            fv: f64::NAN,
+        };
         if u.is_empty() {
+            return;
+        }
+        if self.c.failed() {
+            out.iter_mut().for_each(|o| *o = nan);
             return;
         }
         Python::attach(|py| {
             if let Err(e) = self.eval_py(py, u, v, out) {
-                let nan = HeightSample {
-                    f: f64::NAN,
-                    fu: f64::NAN,
-                    fv: f64::NAN,
-                };
                 out.iter_mut().for_each(|o| *o = nan);
                 self.c.record(e);
             }
@@ -371,6 +386,10 @@ impl HeightField for CallableHeight {
     }
     fn eval_value_batch(&self, u: &[f64], v: &[f64], out: &mut [f64]) {
         if u.is_empty() {
+            return;
+        }
+        if self.c.failed() {
+            out.fill(f64::NAN);
             return;
         }
         Python::attach(|py| match self.values_py(py, u, v) {
@@ -522,22 +541,25 @@ impl CallableParametric {
     }
 
     fn run(&self, u: &[f64], v: &[f64], out: &mut [ParamSample], second: bool) {
+        let nan = DVec3::splat(f64::NAN);
+        let hole = ParamSample {
+            p: nan,
+            pu: nan,
+            pv: nan,
+            puu: nan,
+            puv: nan,
+            pvv: nan,
+        };
         if u.is_empty() {
+            return;
+        }
+        if self.c.failed() {
+            out.iter_mut().for_each(|o| *o = hole);
             return;
         }
         Python::attach(|py| {
             if let Err(e) = self.eval_py(py, u, v, out, second) {
-                let nan = DVec3::splat(f64::NAN);
-                out.iter_mut().for_each(|o| {
-                    *o = ParamSample {
-                        p: nan,
-                        pu: nan,
-                        pv: nan,
-                        puu: nan,
-                        puv: nan,
-                        pvv: nan,
-                    }
-                });
+                out.iter_mut().for_each(|o| *o = hole);
                 self.c.record(e);
             }
         })
@@ -556,6 +578,10 @@ impl ParametricSurface for CallableParametric {
     }
     fn eval_point_batch(&self, u: &[f64], v: &[f64], out: &mut [DVec3]) {
         if u.is_empty() {
+            return;
+        }
+        if self.c.failed() {
+            out.fill(DVec3::splat(f64::NAN));
             return;
         }
         Python::attach(|py| match xyz(py, &self.c, u, v) {
@@ -679,6 +705,7 @@ impl PyFunction {
                 params,
                 calls: AtomicUsize::new(0),
                 error: Mutex::new(None),
+                failed: AtomicBool::new(false),
             },
             has_grad: grad.is_some(),
             domain,
@@ -1232,6 +1259,7 @@ impl PyParametric {
                 params,
                 calls: AtomicUsize::new(0),
                 error: Mutex::new(None),
+                failed: AtomicBool::new(false),
             },
             has_jac: jac.is_some(),
             domain,
