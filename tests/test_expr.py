@@ -261,3 +261,9 @@ def test_long_expression_and_deep_nesting():
     nested = "sin(" * 200 + "u" + ")" * 200
     g = fcol.Function(nested, domain=DOM)
     assert np.isfinite(g.gradient(0.5, 0.5)[0])
+
+
+def test_absurdly_deep_input_is_an_error_not_a_crash():
+    for src in ["(" * 50000 + "u" + ")" * 50000, "-" * 50000 + "u", "+".join(["u"] * 50000)]:
+        with pytest.raises(fcol.ExpressionError, match="deep"):
+            fcol.Function(src, domain=DOM)

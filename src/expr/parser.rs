@@ -164,7 +164,14 @@ struct Parser<'a> {
     src: &'a str,
     toks: Vec<Token>,
     pos: usize,
+    /// Current nesting (parentheses, calls, unary signs, exponents).
+    nest: usize,
 }
+
+/// Deepest nesting of parentheses, calls, signs and exponents accepted.
+pub const MAX_NESTING: usize = 256;
+/// Deepest syntax tree accepted (long chains such as u+u+…+u).
+pub const MAX_DEPTH: usize = 2000;
 
 impl Parser<'_> {
     fn peek(&self) -> &Tok {
@@ -207,6 +214,19 @@ impl Parser<'_> {
         }
     }
     fn unary(&mut self) -> Result<Ast> {
+        self.nest += 1;
+        if self.nest > MAX_NESTING {
+            return Err(err(
+                self.src,
+                self.col(),
+                format!("expression nested more than {MAX_NESTING} levels deep"),
+            ));
+        }
+        let r = self.unary_inner();
+        self.nest -= 1;
+        r
+    }
+    fn unary_inner(&mut self) -> Result<Ast> {
         match self.peek() {
             Tok::Minus => {
                 self.bump();
@@ -298,16 +318,71 @@ pub fn parse(src: &str) -> Result<Ast> {
     if toks.len() == 1 {
         return Err(err(src, 1, "empty expression"));
     }
-    let mut p = Parser { src, toks, pos: 0 };
+    let mut p = Parser {
+        src,
+        toks,
+        pos: 0,
+        nest: 0,
+    };
     let ast = p.expr()?;
     match p.peek() {
-        Tok::End => Ok(ast),
+        Tok::End => {
+            if depth(&ast) > MAX_DEPTH {
+                return Err(err(
+                    src,
+                    1,
+                    format!(
+                        "expression too long: its syntax tree is more than {MAX_DEPTH} levels deep"
+                    ),
+                ));
+            }
+            Ok(ast)
+        }
         Tok::RParen => Err(err(src, p.col(), "unmatched ')'")),
         _ => Err(err(
             src,
             p.col(),
             "expected an operator (+ - * / **) or the end of the expression",
         )),
+    }
+}
+
+/// Depth of a syntax tree (iterative: safe on any tree).
+fn depth(ast: &Ast) -> usize {
+    let mut stack = vec![(ast, 1usize)];
+    let mut best = 0;
+    while let Some((a, d)) = stack.pop() {
+        best = best.max(d);
+        match a {
+            Ast::Num(_) | Ast::Name(..) => {}
+            Ast::Neg(x) => stack.push((x, d + 1)),
+            Ast::Bin(_, x, y) => {
+                stack.push((x, d + 1));
+                stack.push((y, d + 1));
+            }
+            Ast::Call(_, args, _) => stack.extend(args.iter().map(|x| (x, d + 1))),
+        }
+    }
+    best
+}
+
+impl Drop for Ast {
+    /// Iterative drop, so a long chain cannot overflow the stack.
+    fn drop(&mut self) {
+        let mut stack: Vec<Ast> = Vec::new();
+        let take = |a: &mut Ast, stack: &mut Vec<Ast>| match a {
+            Ast::Neg(x) => stack.push(std::mem::replace(&mut **x, Ast::Num(0.0))),
+            Ast::Bin(_, x, y) => {
+                stack.push(std::mem::replace(&mut **x, Ast::Num(0.0)));
+                stack.push(std::mem::replace(&mut **y, Ast::Num(0.0)));
+            }
+            Ast::Call(_, args, _) => stack.append(args),
+            _ => {}
+        };
+        take(self, &mut stack);
+        while let Some(mut a) = stack.pop() {
+            take(&mut a, &mut stack);
+        }
     }
 }
 
@@ -348,6 +423,18 @@ mod tests {
         );
         assert_eq!(parse("1e-3").unwrap(), Num(1e-3));
         assert_eq!(parse(".5").unwrap(), Num(0.5));
+    }
+
+    #[test]
+    fn deep_input_is_an_error_not_a_crash() {
+        let deep = "(".repeat(100_000) + "u" + &")".repeat(100_000);
+        assert!(matches!(parse(&deep), Err(FcolError::Expression { .. })));
+        let minus = "-".repeat(100_000) + "u";
+        assert!(matches!(parse(&minus), Err(FcolError::Expression { .. })));
+        let chain = vec!["u"; 100_000].join("+");
+        assert!(matches!(parse(&chain), Err(FcolError::Expression { .. })));
+        let ok = vec!["u"; 1900].join("+");
+        assert!(parse(&ok).is_ok());
     }
 
     #[test]

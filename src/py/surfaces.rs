@@ -1385,6 +1385,15 @@ impl PyParametric {
         Ok(d)
     }
 
+    /// The time t (None for callables not given t).
+    #[getter]
+    fn t(&self) -> Option<f64> {
+        match &self.kind {
+            ParKind::Expr(s) => Some(s.params()[0].1),
+            ParKind::Call(s) => s.c.t,
+        }
+    }
+
     /// Number of Python calls made so far (0 for expressions).
     #[getter]
     fn calls(&self) -> usize {
