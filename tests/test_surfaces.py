@@ -317,6 +317,20 @@ def test_bad_domain(domain, exc):
         fcol.Parametric("u", "v", "0", domain=domain)
 
 
+def test_sequences_of_any_kind():
+    f = fcol.Function("u*v", domain=[[0, 1], np.array([2.0, 3.0])])
+    assert f.domain == ((0.0, 1.0), (2.0, 3.0))
+    g = fcol.HeightGrid(np.eye(3), extent=np.array([0, 1, 0, 1]))
+    h = fcol.HeightGrid(np.eye(3), spacing=[0.5, 0.5], origin=[1, 1])
+    assert g.extent == (0, 1, 0, 1) and h.extent == (1.0, 2.0, 1.0, 2.0)
+    with pytest.raises(TypeError, match="domain"):
+        fcol.Function("u", domain=((0, 1), (0, 1, 2)))
+    with pytest.raises(TypeError, match="spacing"):
+        fcol.HeightGrid(np.eye(3), spacing="ab")
+    with pytest.raises(ValueError, match="t="):
+        fcol.Function("t*u", domain=DOM, params={"t": 1.0})
+
+
 def test_bad_function_arguments():
     with pytest.raises(TypeError, match="f"):
         fcol.Function(3.0, domain=DOM)
@@ -420,3 +434,29 @@ def test_parametric_params_and_errors():
         fcol.Parametric("u", "v", "0", domain=PDOM, jac=lambda u, v: (u, v))
     with pytest.raises(fcol.ExpressionError, match="z: .*column 5"):
         fcol.Parametric("u", "v", "u + w", domain=PDOM)
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+@pytest.mark.parametrize("interp", ["bilinear", "bicubic"])
+def test_grid_at_tiny_and_huge_scales(scale, interp):
+    z = rand_grid(6, 7, seed=9)
+    base = fcol.HeightGrid(z, extent=(0, 1, 0, 1), interpolation=interp)
+    off = 3 * scale
+    g = fcol.HeightGrid(z * scale, extent=(off, off + scale, -off, -off + scale), interpolation=interp)
+    u, v = points_inside(base, 200)
+    np.testing.assert_allclose(g(off + u * scale, -off + v * scale) / scale, base(u, v), rtol=1e-7, atol=1e-7)
+    gu, gv = g.gradient(off + u * scale, -off + v * scale)
+    bu, bv = base.gradient(u, v)
+    np.testing.assert_allclose(gu, bu, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(gv, bv, rtol=1e-6, atol=1e-6)
+
+
+def test_integer_dem_plateaus_are_flat():
+    z = np.full((6, 6), 120, np.int16)
+    z[3:, :] = 130
+    for interp in ["bilinear", "bicubic"]:
+        g = fcol.HeightGrid(z, spacing=(30.0, 30.0), interpolation=interp)
+        u = np.linspace(0, 150, 31)
+        fu, fv = g.gradient(u, 15.0)  # inside the low plateau, away from the step's kernel
+        assert np.all(fu == 0) and np.all(fv == 0)
+        assert np.all(g(u, 15.0) == 120)

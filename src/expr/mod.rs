@@ -73,6 +73,12 @@ pub fn check_param_name(name: &str) -> Result<()> {
             format!("{name:?} is not a valid parameter name (letters, digits and _, not starting with a digit)"),
         ));
     }
+    if name == "t" {
+        return Err(FcolError::value(
+            "params",
+            "\"t\" is the time variable: pass t=... rather than params={\"t\": ...}",
+        ));
+    }
     if RESERVED.contains(&name) {
         return Err(FcolError::value(
             "params",

@@ -35,6 +35,25 @@ fn type_name(obj: &Bound<'_, PyAny>) -> String {
         .unwrap_or_else(|_| "?".into())
 }
 
+/// `n` numbers from any sequence (tuple, list, NumPy array), else a
+/// TypeError naming `name` with the expected form `what`.
+fn numbers(obj: &Bound<'_, PyAny>, n: usize, name: &str, what: &str) -> PyResult<Vec<f64>> {
+    let bad = || {
+        PyTypeError::new_err(format!(
+            "{name}: expected {what}, got {}",
+            obj.repr().map(|r| r.to_string()).unwrap_or_default()
+        ))
+    };
+    if obj.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let v: Vec<f64> = obj.extract().map_err(|_| bad())?;
+    if v.len() != n {
+        return Err(bad());
+    }
+    Ok(v)
+}
+
 /// `((u0, u1), (v0, v1))`.
 pub(crate) fn extract_domain(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Domain> {
     let Some(obj) = obj.filter(|o| !o.is_none()) else {
@@ -42,12 +61,27 @@ pub(crate) fn extract_domain(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Domain>
             FcolError::value("domain", "required: pass domain=((u0, u1), (v0, v1))").into(),
         );
     };
-    let ((u0, u1), (v0, v1)): ((f64, f64), (f64, f64)) = obj.extract().map_err(|_| {
+    let what = "((u0, u1), (v0, v1)) of numbers";
+    let bad = || {
         PyTypeError::new_err(format!(
-            "domain: expected ((u0, u1), (v0, v1)) of numbers, got {}",
+            "domain: expected {what}, got {}",
             obj.repr().map(|r| r.to_string()).unwrap_or_default()
         ))
-    })?;
+    };
+    if obj.is_instance_of::<pyo3::types::PyString>() {
+        return Err(bad());
+    }
+    let pairs: Vec<Bound<'_, PyAny>> = obj
+        .try_iter()
+        .map_err(|_| bad())?
+        .collect::<PyResult<_>>()
+        .map_err(|_| bad())?;
+    if pairs.len() != 2 {
+        return Err(bad());
+    }
+    let a = numbers(&pairs[0], 2, "domain", what).map_err(|_| bad())?;
+    let b = numbers(&pairs[1], 2, "domain", what).map_err(|_| bad())?;
+    let (u0, u1, v0, v1) = (a[0], a[1], b[0], b[1]);
     Ok(Domain::new(u0, u1, v0, v1)?)
 }
 
@@ -632,7 +666,12 @@ enum FnKind {
 /// ``f(u, v[, t], **params)`` called on whole batches, with an optional
 /// ``grad(u, v[, t], **params) -> (f_u, f_v)`` (central differences with
 /// step h = max(cbrt(eps)·(u1 − u0), 64·eps·|u|) otherwise, likewise in v).
-/// ``with_params`` rebinds parameters (and ``t``) without re-parsing.
+/// ``with_params`` rebinds parameters (and ``t``) without re-parsing. Calling
+/// the Function (``f(u, v)``, ``f.gradient(u, v)``) evaluates anywhere; the
+/// domain bounds the surface the renderers draw. Derivatives at kinks:
+/// ``abs'(x) = sign(x)``, ``min``/``max`` follow the selected argument (the
+/// first on ties), ``floor``/``ceil``/``sign`` have derivative 0. NaN and
+/// ±inf are returned as they are; renderers draw them as holes.
 ///
 /// >>> import fcol, numpy as np
 /// >>> f = fcol.Function("a*sin(u)*v", domain=((0, 3), (0, 1)), params={"a": 2.0})
@@ -969,12 +1008,8 @@ impl PyHeightGrid {
         }
         let data: Vec<f64> = arr.as_array().iter().copied().collect();
         let pair = |o: &Bound<'_, PyAny>, name: &str| -> PyResult<(f64, f64)> {
-            o.extract().map_err(|_| {
-                PyTypeError::new_err(format!(
-                    "{name}: expected two numbers, got {}",
-                    type_name(o)
-                ))
-            })
+            let v = numbers(o, 2, name, "two numbers")?;
+            Ok((v[0], v[1]))
         };
         let extent = extent.filter(|e| !e.is_none());
         let spacing = spacing.filter(|e| !e.is_none());
@@ -988,12 +1023,8 @@ impl PyHeightGrid {
                     )
                     .into());
                 }
-                let (u0, u1, v0, v1): (f64, f64, f64, f64) = e.extract().map_err(|_| {
-                    PyTypeError::new_err(format!(
-                        "extent: expected (u0, u1, v0, v1), got {}",
-                        e.repr().map(|r| r.to_string()).unwrap_or_default()
-                    ))
-                })?;
+                let x = numbers(e, 4, "extent", "(u0, u1, v0, v1)")?;
+                let (u0, u1, v0, v1) = (x[0], x[1], x[2], x[3]);
                 for (n, x) in [("u0", u0), ("u1", u1), ("v0", v0), ("v1", v1)] {
                     if !x.is_finite() {
                         return Err(FcolError::value("extent", format!("{n} must be finite, got {x}")).into());
