@@ -144,6 +144,13 @@ def _time_height(
     mode: Literal["batch", "point", "value"] = "batch",
     repeat: int = 7,
 ) -> float: ...
+def _time_parametric(
+    surface: Parametric,
+    u: npt.ArrayLike,
+    v: npt.ArrayLike,
+    mode: Literal["second", "first", "point"] = "second",
+    repeat: int = 7,
+) -> float: ...
 
 # raster
 

@@ -1583,7 +1583,52 @@ fn _time_height(
     })
 }
 
+/// Benchmark hook: median nanoseconds per point of evaluating a parametric
+/// surface on one thread with the GIL released. `mode`: "second" (P and
+/// its first and second derivatives, batched), "first" (P, Pu, Pv,
+/// batched), "point" (second order, one `eval` per point).
+#[pyfunction]
+#[pyo3(signature = (surface, u, v, mode = "second", repeat = 7))]
+fn _time_parametric(
+    py: Python<'_>,
+    surface: &Bound<'_, PyAny>,
+    u: &Bound<'_, PyAny>,
+    v: &Bound<'_, PyAny>,
+    mode: &str,
+    repeat: usize,
+) -> PyResult<f64> {
+    use std::time::Instant;
+    let p = parametric_from_py(surface)?;
+    let (_, u, v) = broadcast_uv(py, u, v)?;
+    let n = u.len().max(1);
+    if !matches!(mode, "second" | "first" | "point") {
+        return Err(FcolError::value("mode", "must be \"second\", \"first\" or \"point\"").into());
+    }
+    run::detached(py, || {
+        let mut s = vec![ParamSample::default(); u.len()];
+        let mut times = Vec::new();
+        for _ in 0..repeat.max(1) + 1 {
+            let t0 = Instant::now();
+            match mode {
+                "second" => p.eval_batch(&u, &v, &mut s),
+                "first" => p.eval_first_batch(&u, &v, &mut s),
+                _ => {
+                    for i in 0..u.len() {
+                        s[i] = p.eval(u[i], v[i]);
+                    }
+                }
+            }
+            times.push(t0.elapsed().as_secs_f64() * 1e9 / n as f64);
+            std::hint::black_box(&s);
+        }
+        times.remove(0);
+        times.sort_by(|a, b| a.total_cmp(b));
+        Ok(times[times.len() / 2])
+    })
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(_time_parametric, m)?)?;
     m.add_function(wrap_pyfunction!(_eval_height, m)?)?;
     m.add_function(wrap_pyfunction!(_time_height, m)?)?;
     m.add_class::<PyFunction>()?;

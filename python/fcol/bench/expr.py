@@ -56,6 +56,44 @@ def _grid(w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
     return u.ravel(), v.ravel()
 
 
+def _torus_numpy(u, v, R=2.0, r=0.5):
+    """P and its first and second derivatives of a torus, by hand."""
+    cu, su, cv, sv = np.cos(u), np.sin(u), np.cos(v), np.sin(v)
+    w = R + r * cv
+    z = np.zeros_like(u)
+    P = (w * cu, w * su, r * sv)
+    Pu = (-w * su, w * cu, z)
+    Pv = (-r * sv * cu, -r * sv * su, r * cv)
+    Puu = (-w * cu, -w * su, z)
+    Puv = (r * sv * su, -r * sv * cu, z)
+    Pvv = (-r * cv * cu, -r * cv * su, -r * sv)
+    return P, Pu, Pv, Puu, Puv, Pvv
+
+
+def _parametric_rows(rounds: int) -> list[dict[str, Any]]:
+    """Second-order parametric evaluation (what Newton trackers need): a
+    torus from three expressions against NumPy."""
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 480), np.linspace(0, 2 * np.pi, 477))
+    u, v = u.ravel(), v.ravel()
+    n = u.size
+    S = fcol.Parametric("(2 + 0.5*cos(v))*cos(u)", "(2 + 0.5*cos(v))*sin(u)", "0.5*sin(v)",
+                        domain=((0, 2 * np.pi), (0, 2 * np.pi)))
+    ref = _torus_numpy(u, v)
+    got = S.hessian(u, v)
+    err = max(np.abs(np.stack(ref[3 + k], -1) - got[k]).max() for k in range(3))
+    t_np, t_b, t_p = [], [], []
+    for _ in range(rounds):
+        t_np.append(median_time(lambda: _torus_numpy(u, v), repeat=3) / n * 1e9)
+        t_b.append(_fcol._time_parametric(S, u, v, "second", 3))
+        t_p.append(_fcol._time_parametric(S, u, v, "point", 3))
+    np_ns, b, p = (statistics.median(x) for x in (t_np, t_b, t_p))
+    return [
+        dict(expr="torus P, Pu, Pv, Puu, Puv, Pvv", size="480x477", numpy_ms=np_ns * n / 1e6,
+             numpy_ns_pt=np_ns, batch_ns_pt=b, batch_ratio=b / np_ns, point_ns_pt=p,
+             point_ratio=p / np_ns, rel_diff=float(err / 2.5))
+    ]
+
+
 def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
     sizes = [(480, 477)] if quick else [(480, 477), (1920, 1080)]
     rounds = 3 if quick else 5
@@ -104,6 +142,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
                 dict(expr="callable 3*sin(u*cos(v)), central differences", size=f"{w}x{h}",
                      numpy_ms=t_np * n / 1e6, numpy_ns_pt=t_np, batch_ns_pt=t_c, batch_ratio=t_c / t_np)
             )
+    rows.extend(_parametric_rows(rounds))
     (out_dir / "expr.json").write_text(json.dumps(rows, indent=1))
     try:
         import matplotlib
@@ -111,7 +150,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        sel = [r for r in rows if r["size"] == "480x477" and "point_ns_pt" in r]
+        sel = [r for r in rows if r["size"] == "480x477" and "value_ns_pt" in r]
         fig, ax = plt.subplots(figsize=(8, 3.5))
         x = np.arange(len(sel))
         for k, (key, label) in enumerate(
