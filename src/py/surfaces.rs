@@ -665,7 +665,10 @@ enum FnKind {
 /// compiled once with exact derivatives, or a NumPy-vectorised callable
 /// ``f(u, v[, t], **params)`` called on whole batches, with an optional
 /// ``grad(u, v[, t], **params) -> (f_u, f_v)`` (central differences with
-/// step h = max(cbrt(eps)·(u1 − u0), 64·eps·|u|) otherwise, likewise in v).
+/// step h = max(cbrt(eps)·(u1 − u0), 64·eps·|u|) otherwise, likewise in v;
+/// the value and the four neighbours in one call). A callable is probed
+/// once at construction, on the domain's corners and centre, so that a
+/// wrong signature or result shape fails there rather than mid-render.
 /// ``with_params`` rebinds parameters (and ``t``) without re-parsing. Calling
 /// the Function (``f(u, v)``, ``f.gradient(u, v)``) evaluates anywhere; the
 /// domain bounds the surface the renderers draw. Derivatives at kinks:
