@@ -50,6 +50,10 @@ pub fn param_values(c: &Compiled, t: f64, given: &[(String, f64)]) -> Result<Vec
     Ok(values)
 }
 
+/// Batches up to this size are evaluated point by point (faster than a
+/// chunk pass for so few points; identical results).
+const SMALL: usize = 2;
+
 /// `values` with some parameters (or `t`) changed; unknown names and
 /// non-finite values are errors naming them.
 fn changed_values(c: &Compiled, values: &[f64], changes: &[(String, f64)]) -> Result<Vec<f64>> {
@@ -148,6 +152,13 @@ impl HeightField for ExprHeight {
         self.domain
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
+        // Tiny batches take the one-point path (same results, bit for bit).
+        if u.len() <= SMALL {
+            for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
+                *o = self.eval(u, v);
+            }
+            return;
+        }
         self.grad.eval_chunks(u, v, |start, cols| {
             let (f, fu, fv) = (cols[0], cols[1], cols[2]);
             for (i, o) in out[start..start + f.len()].iter_mut().enumerate() {
@@ -253,6 +264,12 @@ impl ParametricSurface for ExprParametric {
         self.domain
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
+        if u.len() <= SMALL {
+            for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
+                *o = self.eval(u, v);
+            }
+            return;
+        }
         self.second.eval_chunks(u, v, |start, c| {
             for (i, o) in out[start..start + c[0].len()].iter_mut().enumerate() {
                 *o = ParamSample {
@@ -280,6 +297,12 @@ impl ParametricSurface for ExprParametric {
         }
     }
     fn eval_first_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
+        if u.len() <= SMALL {
+            for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
+                *o = self.eval_first(u, v);
+            }
+            return;
+        }
         self.first.eval_chunks(u, v, |start, c| {
             for (i, o) in out[start..start + c[0].len()].iter_mut().enumerate() {
                 o.p = gather(c, 3, 0, i);
@@ -305,5 +328,34 @@ impl ParametricSurface for ExprParametric {
                 *o = v3(c, 0, i);
             }
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batch_and_point_paths_agree_bit_for_bit() {
+        let d = Domain::new(-2.0, 2.0, -2.0, 2.0).unwrap();
+        let h = ExprHeight::new("3*sin(u*cos(v)) + exp(-u*v)", &[], 0.0, d).unwrap();
+        let p =
+            ExprParametric::new(["u*cos(v)", "u*sin(v)", "log(1 + u*u)*v"], &[], 0.0, d).unwrap();
+        for n in [1usize, 2, 3, 7, 300] {
+            let u: Vec<f64> = (0..n).map(|i| -1.9 + 0.0123 * i as f64).collect();
+            let v: Vec<f64> = (0..n).map(|i| 1.7 - 0.0101 * i as f64).collect();
+            let mut hs = vec![HeightSample::default(); n];
+            h.eval_batch(&u, &v, &mut hs);
+            let mut ps = vec![ParamSample::default(); n];
+            p.eval_batch(&u, &v, &mut ps);
+            let mut vals = vec![0.0; n];
+            h.eval_value_batch(&u, &v, &mut vals);
+            for i in 0..n {
+                assert_eq!(hs[i], h.eval(u[i], v[i]));
+                assert_eq!(vals[i].to_bits(), hs[i].f.to_bits());
+                assert_eq!(ps[i], p.eval(u[i], v[i]));
+                assert_eq!(p.eval_first(u[i], v[i]).pu, ps[i].pu);
+            }
+        }
     }
 }
