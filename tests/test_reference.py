@@ -204,14 +204,15 @@ def crest_grad(u, v):
     return 3 * c * np.cos(v), -3 * c * u * np.sin(v)
 
 
-def brute_force_first_hit(O, D, s0, s1, n=100_000):
+def brute_force_first_hit(O, D, s0, s1, n=100_000, f=None):
     """First root of g = P_w − f(P_u, P_v) along each ray in [s0, s1] by a
     dense uniform march, then bisection."""
+    f = f or crest_f
     out = np.full(O.shape[0], np.inf)
     for k in range(O.shape[0]):
         s = np.linspace(s0[k], s1[k], n)
         P = O[k] + s[:, None] * D[k]
-        g = P[:, 2] - crest_f(P[:, 0], P[:, 1])
+        g = P[:, 2] - f(P[:, 0], P[:, 1])
         ch = np.nonzero(np.sign(g[:-1]) != np.sign(g[1:]))[0]
         if ch.size == 0:
             continue
@@ -220,7 +221,7 @@ def brute_force_first_hit(O, D, s0, s1, n=100_000):
         for _ in range(80):
             m = 0.5 * (a + b)
             Pm = O[k] + m * D[k]
-            gm = Pm[2] - crest_f(Pm[0], Pm[1])
+            gm = Pm[2] - f(Pm[0], Pm[1])
             if np.sign(gm) == np.sign(ga):
                 a, ga = m, gm
             else:
@@ -480,3 +481,46 @@ def test_mesh_baseline_exact_on_a_plane_and_not_on_crests():
     ref = height_reference(crest_f, crest_grad, dom, view, W, H, mesh=40)
     both = got.mask & ref.mask
     assert np.nanmax(np.abs(got.depth - ref.depth)[both] / ref.pixel_size[both]) > 20
+
+
+def test_integer_dem_bilinear_against_brute_force():
+    from fcol.testing.reference import _slab, grid_bilinear, silhouette_band
+
+    rng = np.random.default_rng(5)
+    z = rng.integers(0, 4, size=(10, 12)).astype(float)  # plateaus and steps of the interpolant
+    z[4:6, 5:8] = 2.0
+    extent = (0.0, 11.0, 9.0, 0.0)  # north-up: row 0 is v = 9
+    f, grad = grid_bilinear(z, extent)
+    assert f(np.array(0.0), np.array(9.0)) == z[0, 0] and f(np.array(11.0), np.array(0.0)) == z[-1, -1]
+    view = fcol.View(35, 200, view_height=14.0, target=(5.5, 4.5, 1.5))
+    W, H = 90, 80
+    ref = height_reference(f, grad, ((0, 11), (0, 9)), view, W, H, mesh=45)
+    cam, O, D = rays_of(view, W, H)
+    pick = np.unique(np.concatenate([rng.choice(np.nonzero(silhouette_band(ref.mask).reshape(-1))[0], 60, replace=False),
+                                     rng.choice(W * H, 90, replace=False)]))
+    s0, s1 = _slab(O[pick], D[pick], np.array([0, 0, -0.01]), np.array([11, 9, 3.01]))
+    live = s0 < s1
+    s = np.full(pick.size, np.inf)
+    s[live] = brute_force_first_hit(O[pick][live], D[pick][live], s0[live], s1[live], n=50_000, f=f)
+    hit = np.isfinite(s)
+    assert np.array_equal(ref.mask.reshape(-1)[pick], hit)
+    depth = ((O[pick][hit] + s[hit, None] * D[pick][hit]) - cam.origin) @ cam.d
+    assert np.abs(ref.depth.reshape(-1)[pick][hit] - depth).max() / cam.p < 1e-6
+
+
+def test_cache_round_trip(tmp_path):
+    view = fcol.View(35, 25, view_height=4.0, target=(0, 0, 1.8))
+    dom = ((-HALF, HALF), (-HALF, HALF))
+    a = height_reference(cap_f, cap_grad, dom, view, 24, 20, mesh=16, cache=tmp_path)
+    b = height_reference(cap_f, cap_grad, dom, view, 24, 20, mesh=16, cache=tmp_path)
+    assert b.stats.get("cached") and not a.stats.get("cached")
+    assert np.array_equal(a.depth, b.depth, equal_nan=True)
+    # A different function (same code, other closure value) is another entry.
+    k = 0.5
+    c = height_reference(lambda u, v: k * cap_f(u, v), lambda u, v: tuple(k * x for x in cap_grad(u, v)), dom, view, 24, 20,
+                         mesh=16, cache=tmp_path)
+    k = 0.6
+    d = height_reference(lambda u, v: k * cap_f(u, v), lambda u, v: tuple(k * x for x in cap_grad(u, v)), dom, view, 24, 20,
+                         mesh=16, cache=tmp_path)
+    assert not c.stats.get("cached") and not d.stats.get("cached")
+    assert not np.array_equal(c.depth, d.depth, equal_nan=True)

@@ -49,6 +49,10 @@ __all__ = [
     "compare",
     "oiio_compare",
     "camera_of",
+    "grid_bilinear",
+    "silhouette_band",
+    "discontinuity_band",
+    "angle_deg",
 ]
 
 
@@ -73,6 +77,79 @@ class Reference:
 
 def camera_of(view: Any, width: int, height: int) -> SpecCamera:
     return SpecCamera.from_view(view, int(width), int(height))
+
+
+_CACHE_VERSION = "fcol-reference-1"
+
+
+def _fingerprint(fn: Any) -> str:
+    """A stable description of a callable for cache keys: its code (byte
+    code, constants, names), defaults and closure values. Globals it reads
+    are not included: pass ``cache_key`` when they vary."""
+    import hashlib
+
+    h = hashlib.sha256()
+
+    def code(c: Any) -> None:
+        h.update(c.co_code)
+        h.update(repr(c.co_names).encode())
+        for k in c.co_consts:
+            if hasattr(k, "co_code"):
+                code(k)
+            else:
+                h.update(repr(k).encode())
+
+    f = getattr(fn, "__func__", fn)
+    if hasattr(f, "__code__"):
+        code(f.__code__)
+        h.update(repr(getattr(f, "__defaults__", None)).encode())
+        for cell in getattr(f, "__closure__", None) or ():
+            try:
+                v = cell.cell_contents
+            except ValueError:
+                continue
+            if hasattr(v, "__code__"):
+                h.update(_fingerprint(v).encode())
+            elif isinstance(v, np.ndarray):
+                h.update(v.tobytes())
+            else:
+                h.update(repr(v).encode())
+    else:
+        h.update(repr(fn).encode())
+    return h.hexdigest()
+
+
+def _view_numbers(view: Any) -> tuple:
+    return tuple(getattr(view, k, None) for k in ("elevation", "azimuth", "projection", "target", "view_height", "distance", "fov"))
+
+
+def _cached(cache: Any, parts: tuple, compute: Callable[[], "Reference"]) -> "Reference":
+    """Load a reference from ``cache`` (a directory) keyed by a hash of
+    ``parts``, or compute and store it."""
+    if cache is None:
+        return compute()
+    import hashlib
+    import os
+    import pickle
+
+    key = hashlib.sha256(repr((_CACHE_VERSION,) + parts).encode()).hexdigest()[:32]
+    os.makedirs(cache, exist_ok=True)
+    path = os.path.join(os.fspath(cache), f"ref-{key}.pkl")
+    if os.path.exists(path):
+        try:
+            with open(path, "rb") as fh:
+                ref = pickle.load(fh)
+            if isinstance(ref, Reference):
+                ref.stats["cached"] = True
+                return ref
+        except Exception:
+            pass
+    ref = compute()
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "wb") as fh:
+        pickle.dump(ref, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    os.replace(tmp, path)
+    return ref
 
 
 def _as_domain(domain: Any) -> tuple[float, float, float, float]:
@@ -210,6 +287,18 @@ def _dangerous(ga, gb, gpa, gpb, h):
         if i.size:
             m = _hermite_min(ga[i], gb[i], gpa[i], gpb[i], h[i], sigma[i])
             out[i] = (m < 0) | ((m < ends[i]) & (m < 0.05 * slope[i]))
+        # g turning back (towards zero at a, away from it at b): a crest of
+        # f between the samples, possibly kinked (the ridge of a bilinear
+        # grid), which the Hermite model does not see. Keep the interval
+        # unless a Lipschitz bound from the end slopes excludes a root, or,
+        # where g is convex, the tangent lines at both ends (a lower bound)
+        # stay on the same side.
+        turn = (ga * gb > 0) & (sigma * gpa < 0) & (sigma * gpb > 0)
+        j = np.nonzero(turn & ~out)[0]
+        if j.size:
+            lip = np.abs(ga[j]) + np.abs(gb[j]) < h[j] * np.maximum(np.abs(gpa[j]), np.abs(gpb[j]))
+            t = np.clip((gb[j] - ga[j] - gpb[j] * h[j]) / (gpa[j] - gpb[j]), 0.0, h[j])
+            out[j] = lip | (sigma[j] * (ga[j] + gpa[j] * t) < 0)
     # One end in a hole (NaN) of f: the edge of the defined region lies
     # inside; bisect to find the surface up to that edge.
     return out | (np.isfinite(ga) != np.isfinite(gb))
@@ -264,6 +353,8 @@ def height_reference(
     mesh: int = 256,
     march_cells: float = 2.0,
     chunk: int = 16,
+    cache: Any = None,
+    cache_key: str | None = None,
 ) -> Reference:
     """The exact first hit of every pixel ray of ``view`` with w = f(u, v)
     over ``domain`` (no surface outside it).
@@ -274,7 +365,21 @@ def height_reference(
     plane) of the guard march that finds crests the mesh misses.
     ``stats`` holds timings, evaluations and how many first hits lie more
     than one pixel before the mesh hit (crests the mesh missed).
+
+    ``cache``: a directory where references are stored, keyed by a hash of
+    every input (the callables by their code and closure values, or by
+    ``cache_key`` if given: pass one when ``f`` reads globals that vary).
+
+    Pixels are trusted except rays whose bracket closed on a jump of f (the
+    vertical wall of a step: hit kept, ``stats["walls"]``) and misses next
+    to an unresolved graze thinner than 1e-3 pixel.
     """
+    parts = ("height", cache_key or (_fingerprint(f), _fingerprint(grad)), repr(domain), _view_numbers(view),
+             int(width), int(height), mesh, march_cells)
+    return _cached(cache, parts, lambda: _height_reference(f, grad, domain, view, width, height, mesh, march_cells, chunk))
+
+
+def _height_reference(f, grad, domain, view, width, height, mesh, march_cells, chunk) -> Reference:
     t_start = time.perf_counter()
     u0, u1, v0, v1 = _as_domain(domain)
     W, H = int(width), int(height)
@@ -898,6 +1003,8 @@ def parametric_reference(
     reseed_px: float = 4.0,
     passes: int = 8,
     agree_px: float = 1e-6,
+    cache: Any = None,
+    cache_key: str | None = None,
 ) -> Reference:
     """The exact nearest hit of every pixel ray with P(u, v) = (X, Y, Z).
 
@@ -909,8 +1016,17 @@ def parametric_reference(
     rounds). The result keeps the nearest root any tessellation found;
     ``trusted`` marks pixels where every tessellation found the same hit
     (or the same miss) within ``agree_px`` pixels. ``periodic`` wraps u / v
-    instead of clamping them during Newton (sphere, torus).
+    instead of clamping them during Newton (sphere, torus). ``cache`` and
+    ``cache_key`` as for :func:`height_reference`.
     """
+    parts = ("parametric", cache_key or (_fingerprint(xyz), _fingerprint(jac)), repr(domain), _view_numbers(view),
+             int(width), int(height), tuple(tessellations), tuple(periodic), reseed_px, passes, agree_px)
+    return _cached(cache, parts, lambda: _parametric_reference(xyz, jac, domain, view, width, height, tessellations,
+                                                               periodic, reseed_px, passes, agree_px))
+
+
+def _parametric_reference(xyz, jac, domain, view, width, height, tessellations, periodic, reseed_px, passes,
+                          agree_px) -> Reference:
     t_start = time.perf_counter()
     u0, u1, v0, v1 = _as_domain(domain)
     W, H = int(width), int(height)
@@ -982,3 +1098,47 @@ def parametric_reference(
     }
     return Reference(trusted=trusted.reshape(H, W), pixel_size=pix.reshape(H, W), stats=stats, **out)
 
+
+
+def grid_bilinear(z: Any, extent: Any) -> tuple[Callable, Callable]:
+    """(f, grad) of the bilinear interpolant of a height grid, for
+    :func:`height_reference`: ``z[i, j]`` is the height at
+    u_j = u0 + j·du, v_i = v0 + i·dv over ``extent = (u0, u1, v0, v1)``
+    (SPEC §1 grids; v0 > v1 for north-up rasters). A cell with a NaN corner
+    is a hole. The gradient is that of the interpolant (one-sided on cell
+    edges, taken from the cell the point falls in).
+
+    >>> f, g = grid_bilinear([[0.0, 1.0], [2.0, 3.0]], (0, 1, 0, 1))
+    >>> float(f(0.5, 0.5)), tuple(float(x) for x in g(0.5, 0.5))
+    (1.5, (1.0, 2.0))
+    """
+    z = np.asarray(z, float)
+    if z.ndim != 2 or min(z.shape) < 2:
+        raise ValueError(f"z: expected a 2-D grid of at least 2x2, got shape {z.shape}")
+    u0, u1, v0, v1 = (float(x) for x in extent)
+    ny, nx = z.shape
+    du, dv = (u1 - u0) / (nx - 1), (v1 - v0) / (ny - 1)
+
+    def locate(u, v):
+        x = (np.asarray(u, float) - u0) / du
+        y = (np.asarray(v, float) - v0) / dv
+        j = np.clip(np.floor(x), 0, nx - 2).astype(np.intp)
+        i = np.clip(np.floor(y), 0, ny - 2).astype(np.intp)
+        return x - j, y - i, i, j
+
+    def corners(i, j):
+        return z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+
+    def f(u, v):
+        tx, ty, i, j = locate(u, v)
+        a, b, c, d = corners(i, j)
+        return (a * (1 - tx) + b * tx) * (1 - ty) + (c * (1 - tx) + d * tx) * ty
+
+    def grad(u, v):
+        tx, ty, i, j = locate(u, v)
+        a, b, c, d = corners(i, j)
+        fu = ((b - a) * (1 - ty) + (d - c) * ty) / du
+        fv = ((c - a) * (1 - tx) + (d - b) * tx) / dv
+        return fu, fv
+
+    return f, grad
