@@ -402,7 +402,15 @@ def _height_reference(f, grad, domain, view, width, height, mesh, march_cells, c
         return Reference(trusted=np.ones((H, W), bool), pixel_size=pix_all, stats=stats, **out)
     wlo, whi = float(ww[finite].min()), float(ww[finite].max())
     scale = max(abs(u1 - u0), abs(v1 - v0), abs(wlo), abs(whi))
-    margin = 0.25 * (whi - wlo) + 1e-9 * scale + 1e-300
+    # Between vertices f may rise above the sampled range by at most about
+    # |grad|·cell (a spike between vertices): widen the slab by that too.
+    with np.errstate(all="ignore"):
+        gu, gv = grad(uu, vv)
+        gabs = np.abs(np.stack(np.broadcast_arrays(np.asarray(gu, float), np.asarray(gv, float))))
+    gabs = gabs[np.isfinite(gabs)]
+    gmax = float(gabs.max()) if gabs.size else 0.0
+    cell0 = max(u1 - u0, v1 - v0) / (n - 1)
+    margin = 0.25 * (whi - wlo) + gmax * cell0 + 1e-9 * scale + 1e-300
     lo = np.array([u0, v0, wlo - margin])
     hi = np.array([u1, v1, whi + margin])
     s_in, s_out = _slab(O, D, lo, hi)
@@ -845,6 +853,8 @@ class _ParamSolver:
         self.xyz, self.jac, self.O, self.D, self.box = xyz, jac, O, D, box
         self.periodic, self.tol, self.cam = periodic, tol, cam
         self.evals = 0
+        self.reseeded = 0
+        self.times: dict[str, float] = {}
 
     def wrap(self, u, v):
         u0, u1, v0, v1 = self.box
@@ -865,36 +875,41 @@ class _ParamSolver:
         u, v = self.wrap(np.asarray(u, float).copy(), np.asarray(v, float).copy())
         s = np.asarray(s, float).copy()
         ok = np.zeros(rid.size, bool)
-        live = np.ones(rid.size, bool)
+        i = np.arange(rid.size)
         su = 0.5 * (self.box[1] - self.box[0])
         sv = 0.5 * (self.box[3] - self.box[2])
+
+        def cross(a, b):
+            return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+        def dot(a, b):
+            return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
         for _ in range(iters):
-            i = np.nonzero(live)[0]
             if not i.size:
                 break
             P = _xyz(self.xyz, u[i], v[i])
-            F = P - O[i] - s[i, None] * D[i]
-            res = np.linalg.norm(F, axis=-1)
+            Oi, Di = O[i], D[i]
+            F = P - Oi - s[i, None] * Di
+            res = np.sqrt(np.einsum("ij,ij->i", F, F))
             conv = res <= self.tol
             ok[i[conv]] = True
-            bad = ~np.isfinite(res)
-            live[i[conv | bad]] = False
-            i, F = i[~conv & ~bad], F[~conv & ~bad]
+            keep = ~conv & np.isfinite(res)
+            i, F, Di = i[keep], F[keep], Di[keep]
             if not i.size:
                 break
             Pu, Pv = _jac(self.jac, u[i], v[i])
-            c2 = -D[i]
-            b = -F
+            pu, pv, c2, b = Pu.T, Pv.T, (-Di).T, (-F).T
             with np.errstate(all="ignore"):
-                det = np.sum(Pu * np.cross(Pv, c2), -1)
-                du = np.sum(b * np.cross(Pv, c2), -1) / det
-                dv = np.sum(Pu * np.cross(b, c2), -1) / det
-                ds = np.sum(Pu * np.cross(Pv, b), -1) / det
+                pv_c2 = cross(pv, c2)
+                det = dot(pu, pv_c2)
+                du = dot(b, pv_c2) / det
+                dv = dot(pu, cross(b, c2)) / det
+                ds = dot(pu, cross(pv, b)) / det
                 # Damp huge parameter steps (keep the direction).
                 k = np.minimum(1.0, 0.5 / np.maximum(np.abs(du) / su, np.abs(dv) / sv))
             k = np.where(np.isfinite(k), k, 0.0)
             good = np.isfinite(du) & np.isfinite(dv) & np.isfinite(ds)
-            live[i[~good]] = False
             i, k, du, dv, ds = i[good], k[good], du[good], dv[good], ds[good]
             u[i], v[i] = self.wrap(u[i] + k * du, v[i] + k * dv)
             s[i] = s[i] + k * ds
@@ -932,7 +947,10 @@ def _param_single(solver: _ParamSolver, n: int, H: int, W: int, s_back: np.ndarr
 
         mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
         start = O + s_back[:, None] * D
+        t0 = time.perf_counter()
         it, ir, loc = RayMeshIntersector(mesh).intersects_id(start, D, multiple_hits=True, max_hits=16, return_locations=True)
+        solver.times["cast"] = solver.times.get("cast", 0.0) + time.perf_counter() - t0
+        t0 = time.perf_counter()
         if it.size:
             tri = verts[faces[it]]
             bary = trimesh.triangles.points_to_barycentric(tri, loc)
@@ -940,41 +958,45 @@ def _param_single(solver: _ParamSolver, n: int, H: int, W: int, s_back: np.ndarr
             s0 = np.sum((loc - O[ir]) * D[ir], -1)
             u, v, s, ok = solver.newton(ir, uv0[:, 0], uv0[:, 1], s0)
             _keep_nearest(best_s, best_u, best_v, ir[ok], s[ok], u[ok], v[ok])
+        solver.times["newton"] = solver.times.get("newton", 0.0) + time.perf_counter() - t0
 
     # Re-seed from neighbours where a pixel misses or is much deeper than one.
     cam = solver.cam
+    changed = np.isfinite(best_s).reshape(H, W)  # neighbours worth seeding from
+    t0 = time.perf_counter()
     for _ in range(passes):
         depth = np.where(np.isfinite(best_s), best_s * (D @ cam.d) + (O - cam.origin) @ cam.d, np.nan).reshape(H, W)
         pix = cam.pixel_size(np.abs(depth)) if cam.persp else np.full((H, W), cam.p)
         hit = np.isfinite(depth)
         rid_l, src_l = [], []
+        depth_p = np.pad(depth, 1, constant_values=np.nan)
+        changed_p = np.pad(changed, 1, constant_values=False)
+        index_p = np.pad(np.arange(N).reshape(H, W), 1, constant_values=-1)
         for di in (-1, 0, 1):
             for dj in (-1, 0, 1):
                 if di == 0 and dj == 0:
                     continue
-                src = np.full((H, W), -1)
-                ii, jj = np.mgrid[0:H, 0:W]
-                si, sj = ii + di, jj + dj
-                inb = (si >= 0) & (si < H) & (sj >= 0) & (sj < W)
-                sic, sjc = np.clip(si, 0, H - 1), np.clip(sj, 0, W - 1)
-                nd = depth[sic, sjc]
+                win = (slice(1 + di, 1 + di + H), slice(1 + dj, 1 + dj + W))
+                nd = depth_p[win]
                 with np.errstate(invalid="ignore"):
-                    need = inb & np.isfinite(nd) & (~hit | (depth > nd + reseed_px * pix))
-                src[need] = (sic * W + sjc)[need]
-                r = np.nonzero(need.reshape(-1))[0]
+                    need = changed_p[win] & np.isfinite(nd) & (~hit | (depth > nd + reseed_px * pix))
+                r = np.flatnonzero(need)
                 rid_l.append(r)
-                src_l.append(src.reshape(-1)[r])
+                src_l.append(index_p[win].reshape(-1)[r])
         rid = np.concatenate(rid_l)
         src = np.concatenate(src_l)
         if not rid.size:
             break
         # Start from the neighbour's parameters, at the depth of its hit.
         s_seed = best_s[src] * (D[src] @ cam.d) / (D[rid] @ cam.d) + ((O[src] - O[rid]) @ cam.d) / (D[rid] @ cam.d)
-        u, v, s, ok = solver.newton(rid, best_u[src], best_v[src], s_seed)
+        u, v, s, ok = solver.newton(rid, best_u[src], best_v[src], s_seed, iters=25)
         before = best_s.copy()
         _keep_nearest(best_s, best_u, best_v, rid[ok], s[ok], u[ok], v[ok])
-        if np.array_equal(before, best_s, equal_nan=True):
+        changed = (best_s != before).reshape(H, W)
+        solver.reseeded += rid.size
+        if not changed.any():
             break
+    solver.times["reseed"] = solver.times.get("reseed", 0.0) + time.perf_counter() - t0
     return best_s, best_u, best_v
 
 
@@ -1093,6 +1115,8 @@ def _parametric_reference(xyz, jac, domain, view, width, height, tessellations, 
         "elapsed": time.perf_counter() - t_start,
         "t_tessellations": times,
         "evaluations": solver.evals,
+        "reseeded": solver.reseeded,
+        **{"t_" + k: v for k, v in solver.times.items()},
         "disagree": int(np.sum(~trusted)),
         "found_by_one_tessellation": int(np.sum(np.isfinite(S).any(0) & ~all_hit)),
     }
