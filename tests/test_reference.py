@@ -526,3 +526,21 @@ def test_cache_round_trip(tmp_path):
                          mesh=16, cache=tmp_path)
     assert not c.stats.get("cached") and not d.stats.get("cached")
     assert not np.array_equal(c.depth, d.depth, equal_nan=True)
+
+
+def test_parametric_coarse_tessellation_recovered_by_reseeding():
+    # An 8x8 / 12x12 torus mesh is a poor polyhedron (whole silhouettes and
+    # inner rims off by pixels); Newton on the exact equations plus
+    # neighbour re-seeding still gives the closed-form picture.
+    W = H = 64
+    view = views_for(10, 20, True, size=6.5, distance=11.0)
+    ref = parametric_reference(torus_xyz, torus_jac, ((-PI, PI), (-PI, PI)), view, W, H, periodic=(True, True),
+                               tessellations=(8, 12))
+    cam, O, D = rays_of(view, W, H)
+    s, n, tangent = torus_closed_form(cam, O, D)
+    hit = np.isfinite(s)
+    assert np.array_equal(ref.mask.reshape(-1)[~tangent], hit[~tangent])
+    P = O[hit] + s[hit, None] * D[hit]
+    depth = (P - cam.origin) @ cam.d
+    assert (np.abs(ref.depth.reshape(-1)[hit] - depth) / cam.pixel_size(depth)).max() < 1e-7
+    assert ref.stats["reseeded"] > 0

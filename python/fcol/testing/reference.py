@@ -102,6 +102,16 @@ def _fingerprint(fn: Any) -> str:
     f = getattr(fn, "__func__", fn)
     if hasattr(f, "__code__"):
         code(f.__code__)
+        # Plain values among the globals it names (constants, arrays).
+        g = getattr(f, "__globals__", {})
+        for name in f.__code__.co_names:
+            val = g.get(name)
+            if isinstance(val, np.ndarray):
+                h.update(val.tobytes())
+            elif isinstance(val, (int, float, complex, str, bytes, tuple)):
+                h.update(repr((name, val)).encode())
+            elif callable(val) and hasattr(val, "__code__") and val is not f:
+                code(val.__code__)
         h.update(repr(getattr(f, "__defaults__", None)).encode())
         for cell in getattr(f, "__closure__", None) or ():
             try:
@@ -126,10 +136,13 @@ def _view_numbers(view: Any) -> tuple:
 def _cached(cache: Any, parts: tuple, compute: Callable[[], "Reference"]) -> "Reference":
     """Load a reference from ``cache`` (a directory) keyed by a hash of
     ``parts``, or compute and store it."""
+    import os
+
+    if cache is None:
+        cache = os.environ.get("FCOL_REFERENCE_CACHE") or None
     if cache is None:
         return compute()
     import hashlib
-    import os
     import pickle
 
     key = hashlib.sha256(repr((_CACHE_VERSION,) + parts).encode()).hexdigest()[:32]
@@ -366,9 +379,12 @@ def height_reference(
     ``stats`` holds timings, evaluations and how many first hits lie more
     than one pixel before the mesh hit (crests the mesh missed).
 
-    ``cache``: a directory where references are stored, keyed by a hash of
-    every input (the callables by their code and closure values, or by
-    ``cache_key`` if given: pass one when ``f`` reads globals that vary).
+    ``cache``: a directory where references are stored (default: the
+    ``FCOL_REFERENCE_CACHE`` environment variable, else no cache), keyed by a
+    hash of every input: the callables by their code, closure values and the
+    plain values (numbers, strings, arrays) and functions they name as
+    globals, or by ``cache_key`` if given (pass one when a callable depends
+    on anything else that may change).
 
     Pixels are trusted except rays whose bracket closed on a jump of f (the
     vertical wall of a step: hit kept, ``stats["walls"]``) and misses next
@@ -740,7 +756,8 @@ def angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, -1)))
 
 
-def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = None, disc_tol_px: float = 3.0) -> dict:
+def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = None, disc_tol_px: float = 3.0,
+            valid: np.ndarray | None = None) -> dict:
     """Errors of a render against a reference (SPEC §5), on whatever
     buffers ``image`` holds.
 
@@ -759,7 +776,8 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
       :func:`shade` of the reference (``shading`` = its keyword options);
     * ``n_compared``: pixels compared — trusted reference pixels where both
       have surface, away from the silhouette band and from the 1-pixel bands
-      at depth discontinuities (:func:`discontinuity_band`).
+      at depth discontinuities (:func:`discontinuity_band`), and inside
+      ``valid`` (an optional (H, W) bool mask) when given.
     """
     H, W = ref.mask.shape
     res: dict[str, Any] = {}
@@ -774,6 +792,8 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
     else:
         both = ref.mask.copy()
     cmp = both & ref.trusted & ~sil & ~disc
+    if valid is not None:
+        cmp &= np.asarray(valid, bool)
     res["n_compared"] = int(cmp.sum())
 
     def stats(name: str, err: np.ndarray) -> None:
@@ -1064,7 +1084,7 @@ def _parametric_reference(xyz, jac, domain, view, width, height, tessellations, 
     Ps = Ps[np.isfinite(Ps).all(-1)]
     if Ps.size == 0:
         out = _empty(H, W)
-        return Reference(trusted=np.ones((H, W), bool), pixel_size=np.full((H, W), np.nan), **out)
+        return Reference(trusted=np.ones((H, W), bool), pixel_size=np.full((H, W), np.nan), stats={}, **out)
     lo, hi = Ps.min(0), Ps.max(0)
     ext = float((hi - lo).max()) or 1.0
     scale = max(ext, float(np.abs(Ps).max()))
