@@ -543,4 +543,7 @@ def test_parametric_coarse_tessellation_recovered_by_reseeding():
     P = O[hit] + s[hit, None] * D[hit]
     depth = (P - cam.origin) @ cam.d
     assert (np.abs(ref.depth.reshape(-1)[hit] - depth) / cam.pixel_size(depth)).max() < 1e-7
-    assert ref.stats["reseeded"] > 0
+    # Without re-seeding the coarse meshes lose pixels (and say so: untrusted).
+    bare = parametric_reference(torus_xyz, torus_jac, ((-PI, PI), (-PI, PI)), view, W, H, periodic=(True, True),
+                                tessellations=(8, 12), passes=0)
+    assert np.sum(bare.mask.reshape(-1) != hit) > 0 and not bare.trusted.all()
