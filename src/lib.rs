@@ -11,9 +11,11 @@
 pub mod camera;
 pub mod cancel;
 pub mod error;
+pub mod expr;
 pub mod image;
 pub mod raster;
 pub mod shade;
+pub mod source;
 pub mod surface;
 
 #[cfg(feature = "python")]

@@ -8,6 +8,7 @@ mod convert;
 mod errors;
 mod raster;
 mod run;
+pub mod surfaces;
 mod view;
 
 #[pymodule]
@@ -24,5 +25,6 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     view::register(m)?;
     raster::register(m)?;
+    surfaces::register(m)?;
     Ok(())
 }
