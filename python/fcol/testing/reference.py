@@ -426,7 +426,7 @@ def _height_reference(f, grad, domain, view, width, height, mesh, march_cells, c
     gabs = gabs[np.isfinite(gabs)]
     gmax = float(gabs.max()) if gabs.size else 0.0
     cell0 = max(u1 - u0, v1 - v0) / (n - 1)
-    margin = 0.25 * (whi - wlo) + gmax * cell0 + 1e-9 * scale + 1e-300
+    margin = 0.05 * (whi - wlo) + gmax * cell0 + 1e-9 * scale + 1e-300
     lo = np.array([u0, v0, wlo - margin])
     hi = np.array([u1, v1, whi + margin])
     s_in, s_out = _slab(O, D, lo, hi)
