@@ -546,7 +546,8 @@ def _height_reference(f, grad, domain, view, width, height, mesh, march_cells, c
             L = B - A
             dang = ~sc & (forced | _dangerous(GA, GB, GPA, GPB, L)) & (A < br_a[rid])
             small = dang & (L <= hmin[rid])
-            unresolved[rid[small]] = True
+            # A graze thinner than hmin (not the edge of a NaN hole).
+            unresolved[rid[small & np.isfinite(GA) & np.isfinite(GB)]] = True
             dang &= ~small
             forced = np.zeros(0, bool)
             if not dang.any():
