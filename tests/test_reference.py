@@ -474,6 +474,10 @@ def test_mesh_baseline_exact_on_a_plane_and_not_on_crests():
     r = compare(img, ref, view)
     # embree works in float32: exact up to its rounding.
     assert r["mask_bad"] == 0 and r["depth_px_max"] < 1e-3 and r["normal_deg_max"] < 1e-4 and r["side_bad"] == 0
+    # trimesh's intersects_location gives the same picture.
+    got2, _ = cast_height_mesh(plane, view, W, H, backend="trimesh")
+    assert np.array_equal(got2.mask, got.mask)
+    assert np.nanmax(np.abs(got2.depth - got.depth)) / (5.0 / H) < 1e-3
     # On 3 sin(u cos v) a coarse mesh misses crests by many pixels of depth.
     dom = ((-5.0, 5.0), (-5.0, 5.0))
     view = fcol.View(16, 30, view_height=15.0)
