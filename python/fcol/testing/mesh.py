@@ -118,7 +118,10 @@ def build_intersector(mesh: Any, backend: str = "embreex") -> Any:
     raise ValueError(f"backend: expected 'embreex' or 'trimesh', got {backend!r}")
 
 
-def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any, backend: str) -> tuple[Reference, dict, Any]:
+def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any, backend: str,
+          normals: str = "vertex") -> tuple[Reference, dict, Any]:
+    if normals not in ("vertex", "face"):
+        raise ValueError(f"normals: expected 'vertex' (interpolated) or 'face', got {normals!r}")
     t_all = time.perf_counter()
     W, H = int(width), int(height)
     timings: dict[str, float] = {}
@@ -157,11 +160,15 @@ def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any, backe
     N = W * H
     out = _empty(H, W)
     flat = {k: x.reshape((N,) + x.shape[2:]) for k, x in out.items()}
-    vn = mesh.metadata.get("vertex_normals")
-    if vn is None:
-        vn = mesh.vertex_normals
     fv = mesh.faces[it]
-    nrm = np.einsum("ij,ijk->ik", bary, vn[fv])
+    if normals == "face":
+        tri = mesh.vertices[fv]
+        nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    else:
+        vn = mesh.metadata.get("vertex_normals")
+        if vn is None:
+            vn = mesh.vertex_normals
+        nrm = np.einsum("ij,ijk->ik", bary, vn[fv])
     with np.errstate(all="ignore"):
         nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
     if mesh.metadata.get("kind") == "parametric":
@@ -184,12 +191,14 @@ def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any, backe
 
 
 def cast_height_mesh(mesh: Any, view: Any, width: int, height: int, grad: Callable | None = None,
-                     *, intersector: Any = None, backend: str = "embreex") -> tuple[Reference, dict]:
+                     *, intersector: Any = None, backend: str = "embreex",
+                     normals: str = "vertex") -> tuple[Reference, dict]:
     """Ray cast a height-field mesh (from :func:`mesh_height`): one ray per
     pixel, first hit, normals interpolated from the vertex normals (exact
     ones from ``grad`` if given, else trimesh's area-weighted ones).
     Pass a prebuilt ``intersector`` (:func:`build_intersector`) to leave the
-    BVH build out; ``backend`` picks the caster built otherwise. Returns
+    BVH build out; ``backend`` picks the caster built otherwise;
+    ``normals="face"`` uses flat triangle normals instead. Returns
     (Reference, timings in seconds: build, rays, cast, normals, total)."""
     t0 = time.perf_counter()
     if grad is not None and "vertex_normals" not in mesh.metadata:
@@ -198,15 +207,15 @@ def cast_height_mesh(mesh: Any, view: Any, width: int, height: int, grad: Callab
         nrm = np.stack(np.broadcast_arrays(-np.asarray(fu, float), -np.asarray(fv, float), np.ones_like(u)), -1)
         mesh.metadata["vertex_normals"] = nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)
     t_grad = time.perf_counter() - t0
-    ref, timings, _ = _cast(mesh, view, width, height, intersector, backend)
+    ref, timings, _ = _cast(mesh, view, width, height, intersector, backend, normals)
     timings["normals"] += t_grad  # exact vertex normals, when computed here
     timings["total"] += t_grad
     return ref, timings
 
 
 def cast_parametric_mesh(mesh: Any, view: Any, width: int, height: int, *, intersector: Any = None,
-                         backend: str = "embreex") -> tuple[Reference, dict]:
+                         backend: str = "embreex", normals: str = "vertex") -> tuple[Reference, dict]:
     """Ray cast a parametric mesh (from :func:`mesh_parametric`), as
     :func:`cast_height_mesh`; uv interpolated from the vertex parameters."""
-    ref, timings, _ = _cast(mesh, view, width, height, intersector, backend)
+    ref, timings, _ = _cast(mesh, view, width, height, intersector, backend, normals)
     return ref, timings
