@@ -278,6 +278,10 @@ def test_compare_metrics_on_perturbations():
     r0 = compare(img, ref, view)
     assert r0["mask_bad"] == 0 and r0["depth_px_median"] < 1e-3 and r0["normal_deg_median"] < 1e-2
     assert r0["ssim"] == pytest.approx(1.0) and r0["side_bad"] == 0 and r0["n_compared"] > 800
+    inten, _ = shade(ref, view)
+    img.intensity = (inten + 0.01).astype(np.float32)
+    assert compare(img, ref, view)["intensity_err_median"] == pytest.approx(0.01, abs=1e-6)
+    img.intensity = None
     # Depth shifted by 0.1 pixel.
     img.depth = (ref.depth + 0.1 * ref.pixel_size).astype(np.float64)
     r = compare(img, ref, view)

@@ -773,6 +773,8 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
     * ``side_bad``: compared pixels whose side differs;
     * ``farther_sheet``: compared pixels more than one pixel deeper than the
       reference (a farther sheet taken for the nearest);
+    * ``intensity_err_median``, ``_p99``, ``_max``: |intensity − intensity of
+      :func:`shade` of the reference|;
     * ``ssim``: skimage's structural similarity of ``rgb`` against
       :func:`shade` of the reference (``shading`` = its keyword options);
     * ``n_compared``: pixels compared — trusted reference pixels where both
@@ -819,10 +821,14 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
             res["uv_err_median"] = float(np.median(e))
     if getattr(image, "side", None) is not None:
         res["side_bad"] = int(np.sum((np.asarray(image.side) != ref.side) & cmp))
+    shaded = None
+    if getattr(image, "intensity", None) is not None:
+        shaded = shade(ref, view, **(shading or {}))
+        stats("intensity_err", np.where(cmp, np.abs(np.asarray(image.intensity, float) - shaded[0]), np.nan))
     if getattr(image, "rgb", None) is not None:
         from skimage.metrics import structural_similarity
 
-        _, rgb = shade(ref, view, **(shading or {}))
+        _, rgb = shaded or shade(ref, view, **(shading or {}))
         res["ssim"] = float(structural_similarity(np.asarray(image.rgb), rgb, channel_axis=2, data_range=255))
     return res
 
