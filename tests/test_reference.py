@@ -10,7 +10,6 @@ import pytest
 
 import fcol
 from fcol.testing.reference import (
-    Reference,
     angle_deg,
     compare,
     height_reference,

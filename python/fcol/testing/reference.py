@@ -580,7 +580,6 @@ def _height_reference(f, grad, domain, view, width, height, mesh, march_cells, c
     # step), not on a root. The ray meets the wall there; keep the hit but do
     # not trust its normal and depth.
     gx, _ = rays.g(hitr, s_hit)
-    dot = D[hitr] @ cam.d
     pix_hit = cam.pixel_size(np.abs((O[hitr] + s_hit[:, None] * D[hitr] - cam.origin) @ cam.d)) if cam.persp else np.full(hitr.size, cam.p)
     wall = ~(np.abs(gx) <= 1e-4 * pix_hit + 1e-12 * scale)
     stats["walls"] = int(np.sum(wall & good))
