@@ -554,3 +554,16 @@ def test_parametric_coarse_tessellation_recovered_by_reseeding():
     bare = parametric_reference(torus_xyz, torus_jac, ((-PI, PI), (-PI, PI)), view, W, H, periodic=(True, True),
                                 tessellations=(8, 12), passes=0)
     assert np.sum(bare.mask.reshape(-1) != hit) > 0 and not bare.trusted.all()
+
+
+@pytest.mark.parametrize("view", [fcol.View(30, 40, view_height=3.0, target=(0.5, -1, 2)),
+                                  fcol.View(-30, 200, "perspective", distance=7.0, fov=50.0, target=(1, 2, 3))])
+def test_spec_camera_from_view_reads_the_view(view):
+    cam = SpecCamera.from_view(view, 13, 9)
+    O, D = cam.rays()
+    o, d = view.rays(13, 9)
+    np.testing.assert_allclose(D, d, atol=1e-14)
+    # Orthographic origins may differ along d only; perspective ones are the eye.
+    np.testing.assert_allclose(np.cross(O - o, D), 0, atol=1e-12)
+    P = O + 2.5 * D
+    np.testing.assert_allclose(cam.depth_of(P), view.depth(P, 13, 9), rtol=1e-12, atol=1e-12)
