@@ -10,7 +10,6 @@ import pytest
 
 import fcol
 from fcol.testing.reference import (
-    Reference,
     angle_deg,
     compare,
     height_reference,
@@ -204,28 +203,31 @@ def crest_grad(u, v):
     return 3 * c * np.cos(v), -3 * c * u * np.sin(v)
 
 
-def brute_force_first_hit(O, D, s0, s1, n=100_000):
+def brute_force_first_hit(O, D, s0, s1, n=100_000, f=None, batch=16):
     """First root of g = P_w − f(P_u, P_v) along each ray in [s0, s1] by a
-    dense uniform march, then bisection."""
+    dense uniform march (n samples), then bisection of the first sign change."""
+    f = f or crest_f
     out = np.full(O.shape[0], np.inf)
-    for k in range(O.shape[0]):
-        s = np.linspace(s0[k], s1[k], n)
-        P = O[k] + s[:, None] * D[k]
-        g = P[:, 2] - crest_f(P[:, 0], P[:, 1])
-        ch = np.nonzero(np.sign(g[:-1]) != np.sign(g[1:]))[0]
-        if ch.size == 0:
-            continue
-        a, b = s[ch[0]], s[ch[0] + 1]
-        ga = g[ch[0]]
+    t = np.linspace(0.0, 1.0, n)
+    for k0 in range(0, O.shape[0], batch):
+        sl = slice(k0, k0 + batch)
+        o, d = O[sl], D[sl]
+        S = s0[sl, None] + (s1[sl] - s0[sl])[:, None] * t[None, :]
+        g = o[:, 2, None] + S * d[:, 2, None] - f(o[:, 0, None] + S * d[:, 0, None], o[:, 1, None] + S * d[:, 1, None])
+        ch = np.sign(g[:, :-1]) != np.sign(g[:, 1:])
+        has = ch.any(1)
+        j = ch.argmax(1)
+        rows = np.nonzero(has)[0]
+        a, b = S[rows, j[rows]], S[rows, j[rows] + 1]
+        ga = g[rows, j[rows]]
         for _ in range(80):
             m = 0.5 * (a + b)
-            Pm = O[k] + m * D[k]
-            gm = Pm[2] - crest_f(Pm[0], Pm[1])
-            if np.sign(gm) == np.sign(ga):
-                a, ga = m, gm
-            else:
-                b = m
-        out[k] = 0.5 * (a + b)
+            Pm = o[rows] + m[:, None] * d[rows]
+            gm = Pm[:, 2] - f(Pm[:, 0], Pm[:, 1])
+            same = np.sign(gm) == np.sign(ga)
+            a, ga = np.where(same, m, a), np.where(same, gm, ga)
+            b = np.where(same, b, m)
+        out[k0 + rows] = 0.5 * (a + b)
     return out
 
 
@@ -243,7 +245,7 @@ def test_grazing_crests_against_brute_force(persp):
 
     hard = np.nonzero((discontinuity_band(ref, view) | silhouette_band(ref.mask)).reshape(-1))[0]
     rng = np.random.default_rng(3)
-    pick = np.unique(np.concatenate([rng.choice(hard, 160, replace=False), rng.choice(W * H, 80, replace=False)]))
+    pick = np.unique(np.concatenate([rng.choice(hard, 110, replace=False), rng.choice(W * H, 50, replace=False)]))
     from fcol.testing.reference import _slab
 
     s0, s1 = _slab(O[pick], D[pick], np.array([-5, -5, -3.0]), np.array([5, 5, 3.0]))
@@ -275,6 +277,10 @@ def test_compare_metrics_on_perturbations():
     r0 = compare(img, ref, view)
     assert r0["mask_bad"] == 0 and r0["depth_px_median"] < 1e-3 and r0["normal_deg_median"] < 1e-2
     assert r0["ssim"] == pytest.approx(1.0) and r0["side_bad"] == 0 and r0["n_compared"] > 800
+    inten, _ = shade(ref, view)
+    img.intensity = (inten + 0.01).astype(np.float32)
+    assert compare(img, ref, view)["intensity_err_median"] == pytest.approx(0.01, abs=1e-6)
+    img.intensity = None
     # Depth shifted by 0.1 pixel.
     img.depth = (ref.depth + 0.1 * ref.pixel_size).astype(np.float64)
     r = compare(img, ref, view)
@@ -471,6 +477,10 @@ def test_mesh_baseline_exact_on_a_plane_and_not_on_crests():
     r = compare(img, ref, view)
     # embree works in float32: exact up to its rounding.
     assert r["mask_bad"] == 0 and r["depth_px_max"] < 1e-3 and r["normal_deg_max"] < 1e-4 and r["side_bad"] == 0
+    # trimesh's intersects_location gives the same picture.
+    got2, _ = cast_height_mesh(plane, view, W, H, backend="trimesh")
+    assert np.array_equal(got2.mask, got.mask)
+    assert np.nanmax(np.abs(got2.depth - got.depth)) / (5.0 / H) < 1e-3
     # On 3 sin(u cos v) a coarse mesh misses crests by many pixels of depth.
     dom = ((-5.0, 5.0), (-5.0, 5.0))
     view = fcol.View(16, 30, view_height=15.0)
@@ -480,3 +490,80 @@ def test_mesh_baseline_exact_on_a_plane_and_not_on_crests():
     ref = height_reference(crest_f, crest_grad, dom, view, W, H, mesh=40)
     both = got.mask & ref.mask
     assert np.nanmax(np.abs(got.depth - ref.depth)[both] / ref.pixel_size[both]) > 20
+
+
+def test_integer_dem_bilinear_against_brute_force():
+    from fcol.testing.reference import _slab, grid_bilinear, silhouette_band
+
+    rng = np.random.default_rng(5)
+    z = rng.integers(0, 4, size=(10, 12)).astype(float)  # plateaus and steps of the interpolant
+    z[4:6, 5:8] = 2.0
+    extent = (0.0, 11.0, 9.0, 0.0)  # north-up: row 0 is v = 9
+    f, grad = grid_bilinear(z, extent)
+    assert f(np.array(0.0), np.array(9.0)) == z[0, 0] and f(np.array(11.0), np.array(0.0)) == z[-1, -1]
+    view = fcol.View(35, 200, view_height=14.0, target=(5.5, 4.5, 1.5))
+    W, H = 90, 80
+    ref = height_reference(f, grad, ((0, 11), (0, 9)), view, W, H, mesh=45)
+    cam, O, D = rays_of(view, W, H)
+    pick = np.unique(np.concatenate([rng.choice(np.nonzero(silhouette_band(ref.mask).reshape(-1))[0], 60, replace=False),
+                                     rng.choice(W * H, 90, replace=False)]))
+    s0, s1 = _slab(O[pick], D[pick], np.array([0, 0, -0.01]), np.array([11, 9, 3.01]))
+    live = s0 < s1
+    s = np.full(pick.size, np.inf)
+    s[live] = brute_force_first_hit(O[pick][live], D[pick][live], s0[live], s1[live], n=50_000, f=f)
+    hit = np.isfinite(s)
+    assert np.array_equal(ref.mask.reshape(-1)[pick], hit)
+    depth = ((O[pick][hit] + s[hit, None] * D[pick][hit]) - cam.origin) @ cam.d
+    assert np.abs(ref.depth.reshape(-1)[pick][hit] - depth).max() / cam.p < 1e-6
+
+
+def test_cache_round_trip(tmp_path):
+    view = fcol.View(35, 25, view_height=4.0, target=(0, 0, 1.8))
+    dom = ((-HALF, HALF), (-HALF, HALF))
+    a = height_reference(cap_f, cap_grad, dom, view, 24, 20, mesh=16, cache=tmp_path)
+    b = height_reference(cap_f, cap_grad, dom, view, 24, 20, mesh=16, cache=tmp_path)
+    assert b.stats.get("cached") and not a.stats.get("cached")
+    assert np.array_equal(a.depth, b.depth, equal_nan=True)
+    # A different function (same code, other closure value) is another entry.
+    k = 0.5
+    c = height_reference(lambda u, v: k * cap_f(u, v), lambda u, v: tuple(k * x for x in cap_grad(u, v)), dom, view, 24, 20,
+                         mesh=16, cache=tmp_path)
+    k = 0.6
+    d = height_reference(lambda u, v: k * cap_f(u, v), lambda u, v: tuple(k * x for x in cap_grad(u, v)), dom, view, 24, 20,
+                         mesh=16, cache=tmp_path)
+    assert not c.stats.get("cached") and not d.stats.get("cached")
+    assert not np.array_equal(c.depth, d.depth, equal_nan=True)
+
+
+def test_parametric_coarse_tessellation_recovered_by_reseeding():
+    # An 8x8 / 12x12 torus mesh is a poor polyhedron (whole silhouettes and
+    # inner rims off by pixels); Newton on the exact equations plus
+    # neighbour re-seeding still gives the closed-form picture.
+    W = H = 64
+    view = views_for(10, 20, True, size=6.5, distance=11.0)
+    ref = parametric_reference(torus_xyz, torus_jac, ((-PI, PI), (-PI, PI)), view, W, H, periodic=(True, True),
+                               tessellations=(8, 12))
+    cam, O, D = rays_of(view, W, H)
+    s, n, tangent = torus_closed_form(cam, O, D)
+    hit = np.isfinite(s)
+    assert np.array_equal(ref.mask.reshape(-1)[~tangent], hit[~tangent])
+    P = O[hit] + s[hit, None] * D[hit]
+    depth = (P - cam.origin) @ cam.d
+    assert (np.abs(ref.depth.reshape(-1)[hit] - depth) / cam.pixel_size(depth)).max() < 1e-7
+    # Without re-seeding the coarse meshes lose pixels (and say so: untrusted).
+    bare = parametric_reference(torus_xyz, torus_jac, ((-PI, PI), (-PI, PI)), view, W, H, periodic=(True, True),
+                                tessellations=(8, 12), passes=0)
+    assert np.sum(bare.mask.reshape(-1) != hit) > 0 and not bare.trusted.all()
+
+
+@pytest.mark.parametrize("view", [fcol.View(30, 40, view_height=3.0, target=(0.5, -1, 2)),
+                                  fcol.View(-30, 200, "perspective", distance=7.0, fov=50.0, target=(1, 2, 3))])
+def test_spec_camera_from_view_reads_the_view(view):
+    cam = SpecCamera.from_view(view, 13, 9)
+    O, D = cam.rays()
+    o, d = view.rays(13, 9)
+    np.testing.assert_allclose(D, d, atol=1e-14)
+    # Orthographic origins may differ along d only; perspective ones are the eye.
+    np.testing.assert_allclose(np.cross(O - o, D), 0, atol=1e-12)
+    P = O + 2.5 * D
+    np.testing.assert_allclose(cam.depth_of(P), view.depth(P, 13, 9), rtol=1e-12, atol=1e-12)

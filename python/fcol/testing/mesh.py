@@ -21,7 +21,7 @@ import numpy as np
 
 from .reference import Reference, _as_domain, _empty, _xyz, _jac, camera_of
 
-__all__ = ["mesh_height", "cast_height_mesh", "mesh_parametric", "cast_parametric_mesh", "build_intersector"]
+__all__ = ["mesh_height", "cast_height_mesh", "mesh_parametric", "cast_parametric_mesh", "build_intersector", "EmbreeCaster"]
 
 
 def _grid_faces(n: int, ok: np.ndarray) -> np.ndarray:
@@ -80,22 +80,54 @@ def mesh_parametric(xyz: Callable, domain: Any, n: int, jac: Callable | None = N
     return mesh
 
 
-def build_intersector(mesh: Any) -> Any:
-    """trimesh's embreex intersector with its BVH built."""
-    from trimesh.ray.ray_pyembree import RayMeshIntersector
+class EmbreeCaster:
+    """embreex used directly (as a performance-minded user would): one
+    float32 scene, first hits with their barycentric coordinates. Vertices
+    and ray origins are shifted by the mesh's minimum corner first (what
+    trimesh does too) to keep float32 precision."""
 
-    it = RayMeshIntersector(mesh)
-    _ = it._scene  # builds the embree scene
-    return it
+    def __init__(self, mesh: Any):
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        self.origin = np.asarray(mesh.vertices, float).min(axis=0)
+        self.scene = rtcore_scene.EmbreeScene()
+        TriangleMesh(scene=self.scene, vertices=(np.asarray(mesh.vertices, float) - self.origin).astype(np.float32),
+                     indices=np.asarray(mesh.faces, np.int32))
+        # The BVH is built on the first query: do a throw-away one now.
+        self.scene.run(np.zeros((1, 3), np.float32), np.array([[0, 0, 1]], np.float32), output=1)
+
+    def first_hits(self, O: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(triangle index or −1, barycentric u, v of vertices 1 and 2, distance)."""
+        r = self.scene.run((O - self.origin).astype(np.float32), D.astype(np.float32), output=1)
+        return r["primID"], r["u"].astype(float), r["v"].astype(float), r["tfar"].astype(float)
 
 
-def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any) -> tuple[Reference, dict, Any]:
+def build_intersector(mesh: Any, backend: str = "embreex") -> Any:
+    """The ray caster of a mesh with its BVH built: ``"embreex"`` (direct,
+    :class:`EmbreeCaster`) or ``"trimesh"`` (trimesh's embreex
+    ``RayMeshIntersector``, whose ``intersects_location`` most scripts call)."""
+    if backend == "embreex":
+        return EmbreeCaster(mesh)
+    if backend == "trimesh":
+        from trimesh.ray.ray_pyembree import RayMeshIntersector
+
+        it = RayMeshIntersector(mesh)
+        _ = it._scene  # builds the embree scene
+        return it
+    raise ValueError(f"backend: expected 'embreex' or 'trimesh', got {backend!r}")
+
+
+def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any, backend: str,
+          normals: str = "vertex") -> tuple[Reference, dict, Any]:
+    if normals not in ("vertex", "face"):
+        raise ValueError(f"normals: expected 'vertex' (interpolated) or 'face', got {normals!r}")
     t_all = time.perf_counter()
     W, H = int(width), int(height)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     if intersector is None:
-        intersector = build_intersector(mesh)
+        intersector = build_intersector(mesh, backend)
     timings["build"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -111,24 +143,36 @@ def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any) -> tu
     timings["rays"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    loc, ir, it = intersector.intersects_location(O, D, multiple_hits=False)
+    if isinstance(intersector, EmbreeCaster):
+        tri, bu, bv, dist = intersector.first_hits(O, D)
+        ir = np.nonzero(tri >= 0)[0]
+        it = tri[ir].astype(np.intp)
+        bary = np.stack([1.0 - bu[ir] - bv[ir], bu[ir], bv[ir]], -1)
+        loc = O[ir] + dist[ir, None] * D[ir]
+    else:
+        import trimesh
+
+        loc, ir, it = intersector.intersects_location(O, D, multiple_hits=False)
+        bary = trimesh.triangles.points_to_barycentric(mesh.triangles[it], loc)
     timings["cast"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    import trimesh
-
     N = W * H
     out = _empty(H, W)
     flat = {k: x.reshape((N,) + x.shape[2:]) for k, x in out.items()}
-    bary = trimesh.triangles.points_to_barycentric(mesh.triangles[it], loc)
-    vn = mesh.metadata.get("vertex_normals")
-    if vn is None:
-        vn = mesh.vertex_normals
-    nrm = np.einsum("ij,ijk->ik", bary, vn[mesh.faces[it]])
+    fv = mesh.faces[it]
+    if normals == "face":
+        tri = mesh.vertices[fv]
+        nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    else:
+        vn = mesh.metadata.get("vertex_normals")
+        if vn is None:
+            vn = mesh.vertex_normals
+        nrm = np.einsum("ij,ijk->ik", bary, vn[fv])
     with np.errstate(all="ignore"):
         nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
     if mesh.metadata.get("kind") == "parametric":
-        uv = np.einsum("ij,ijk->ik", bary, mesh.metadata["uv"][mesh.faces[it]])
+        uv = np.einsum("ij,ijk->ik", bary, mesh.metadata["uv"][fv])
     else:
         uv = loc[:, :2]
     depth = (loc - cam.origin) @ cam.d
@@ -147,24 +191,31 @@ def _cast(mesh: Any, view: Any, width: int, height: int, intersector: Any) -> tu
 
 
 def cast_height_mesh(mesh: Any, view: Any, width: int, height: int, grad: Callable | None = None,
-                     *, intersector: Any = None) -> tuple[Reference, dict]:
+                     *, intersector: Any = None, backend: str = "embreex",
+                     normals: str = "vertex") -> tuple[Reference, dict]:
     """Ray cast a height-field mesh (from :func:`mesh_height`): one ray per
     pixel, first hit, normals interpolated from the vertex normals (exact
     ones from ``grad`` if given, else trimesh's area-weighted ones).
     Pass a prebuilt ``intersector`` (:func:`build_intersector`) to leave the
-    BVH build out. Returns (Reference, timings in seconds: build, rays,
-    cast, normals, total)."""
+    BVH build out; ``backend`` picks the caster built otherwise;
+    ``normals="face"`` uses flat triangle normals instead. Returns
+    (Reference, timings in seconds: build, rays, cast, normals, total)."""
+    t0 = time.perf_counter()
     if grad is not None and "vertex_normals" not in mesh.metadata:
         u, v = mesh.vertices[:, 0], mesh.vertices[:, 1]
         fu, fv = grad(u, v)
         nrm = np.stack(np.broadcast_arrays(-np.asarray(fu, float), -np.asarray(fv, float), np.ones_like(u)), -1)
         mesh.metadata["vertex_normals"] = nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)
-    ref, timings, _ = _cast(mesh, view, width, height, intersector)
+    t_grad = time.perf_counter() - t0
+    ref, timings, _ = _cast(mesh, view, width, height, intersector, backend, normals)
+    timings["normals"] += t_grad  # exact vertex normals, when computed here
+    timings["total"] += t_grad
     return ref, timings
 
 
-def cast_parametric_mesh(mesh: Any, view: Any, width: int, height: int, *, intersector: Any = None) -> tuple[Reference, dict]:
+def cast_parametric_mesh(mesh: Any, view: Any, width: int, height: int, *, intersector: Any = None,
+                         backend: str = "embreex", normals: str = "vertex") -> tuple[Reference, dict]:
     """Ray cast a parametric mesh (from :func:`mesh_parametric`), as
     :func:`cast_height_mesh`; uv interpolated from the vertex parameters."""
-    ref, timings, _ = _cast(mesh, view, width, height, intersector)
+    ref, timings, _ = _cast(mesh, view, width, height, intersector, backend, normals)
     return ref, timings

@@ -49,6 +49,10 @@ __all__ = [
     "compare",
     "oiio_compare",
     "camera_of",
+    "grid_bilinear",
+    "silhouette_band",
+    "discontinuity_band",
+    "angle_deg",
 ]
 
 
@@ -73,6 +77,92 @@ class Reference:
 
 def camera_of(view: Any, width: int, height: int) -> SpecCamera:
     return SpecCamera.from_view(view, int(width), int(height))
+
+
+_CACHE_VERSION = "fcol-reference-1"
+
+
+def _fingerprint(fn: Any) -> str:
+    """A stable description of a callable for cache keys: its code (byte
+    code, constants, names), defaults and closure values. Globals it reads
+    are not included: pass ``cache_key`` when they vary."""
+    import hashlib
+
+    h = hashlib.sha256()
+
+    def code(c: Any) -> None:
+        h.update(c.co_code)
+        h.update(repr(c.co_names).encode())
+        for k in c.co_consts:
+            if hasattr(k, "co_code"):
+                code(k)
+            else:
+                h.update(repr(k).encode())
+
+    f = getattr(fn, "__func__", fn)
+    if hasattr(f, "__code__"):
+        code(f.__code__)
+        # Plain values among the globals it names (constants, arrays).
+        g = getattr(f, "__globals__", {})
+        for name in f.__code__.co_names:
+            val = g.get(name)
+            if isinstance(val, np.ndarray):
+                h.update(val.tobytes())
+            elif isinstance(val, (int, float, complex, str, bytes, tuple)):
+                h.update(repr((name, val)).encode())
+            elif callable(val) and hasattr(val, "__code__") and val is not f:
+                code(val.__code__)
+        h.update(repr(getattr(f, "__defaults__", None)).encode())
+        for cell in getattr(f, "__closure__", None) or ():
+            try:
+                v = cell.cell_contents
+            except ValueError:
+                continue
+            if hasattr(v, "__code__"):
+                h.update(_fingerprint(v).encode())
+            elif isinstance(v, np.ndarray):
+                h.update(v.tobytes())
+            else:
+                h.update(repr(v).encode())
+    else:
+        h.update(repr(fn).encode())
+    return h.hexdigest()
+
+
+def _view_numbers(view: Any) -> tuple:
+    return tuple(getattr(view, k, None) for k in ("elevation", "azimuth", "projection", "target", "view_height", "distance", "fov"))
+
+
+def _cached(cache: Any, parts: tuple, compute: Callable[[], "Reference"]) -> "Reference":
+    """Load a reference from ``cache`` (a directory) keyed by a hash of
+    ``parts``, or compute and store it."""
+    import os
+
+    if cache is None:
+        cache = os.environ.get("FCOL_REFERENCE_CACHE") or None
+    if cache is None:
+        return compute()
+    import hashlib
+    import pickle
+
+    key = hashlib.sha256(repr((_CACHE_VERSION,) + parts).encode()).hexdigest()[:32]
+    os.makedirs(cache, exist_ok=True)
+    path = os.path.join(os.fspath(cache), f"ref-{key}.pkl")
+    if os.path.exists(path):
+        try:
+            with open(path, "rb") as fh:
+                ref = pickle.load(fh)
+            if isinstance(ref, Reference):
+                ref.stats["cached"] = True
+                return ref
+        except Exception:
+            pass
+    ref = compute()
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "wb") as fh:
+        pickle.dump(ref, fh, protocol=pickle.HIGHEST_PROTOCOL)
+    os.replace(tmp, path)
+    return ref
 
 
 def _as_domain(domain: Any) -> tuple[float, float, float, float]:
@@ -210,6 +300,18 @@ def _dangerous(ga, gb, gpa, gpb, h):
         if i.size:
             m = _hermite_min(ga[i], gb[i], gpa[i], gpb[i], h[i], sigma[i])
             out[i] = (m < 0) | ((m < ends[i]) & (m < 0.05 * slope[i]))
+        # g turning back (towards zero at a, away from it at b): a crest of
+        # f between the samples, possibly kinked (the ridge of a bilinear
+        # grid), which the Hermite model does not see. Keep the interval
+        # unless a Lipschitz bound from the end slopes excludes a root, or,
+        # where g is convex, the tangent lines at both ends (a lower bound)
+        # stay on the same side.
+        turn = (ga * gb > 0) & (sigma * gpa < 0) & (sigma * gpb > 0)
+        j = np.nonzero(turn & ~out)[0]
+        if j.size:
+            lip = np.abs(ga[j]) + np.abs(gb[j]) < h[j] * np.maximum(np.abs(gpa[j]), np.abs(gpb[j]))
+            t = np.clip((gb[j] - ga[j] - gpb[j] * h[j]) / (gpa[j] - gpb[j]), 0.0, h[j])
+            out[j] = lip | (sigma[j] * (ga[j] + gpa[j] * t) < 0)
     # One end in a hole (NaN) of f: the edge of the defined region lies
     # inside; bisect to find the surface up to that edge.
     return out | (np.isfinite(ga) != np.isfinite(gb))
@@ -264,6 +366,8 @@ def height_reference(
     mesh: int = 256,
     march_cells: float = 2.0,
     chunk: int = 16,
+    cache: Any = None,
+    cache_key: str | None = None,
 ) -> Reference:
     """The exact first hit of every pixel ray of ``view`` with w = f(u, v)
     over ``domain`` (no surface outside it).
@@ -274,7 +378,24 @@ def height_reference(
     plane) of the guard march that finds crests the mesh misses.
     ``stats`` holds timings, evaluations and how many first hits lie more
     than one pixel before the mesh hit (crests the mesh missed).
+
+    ``cache``: a directory where references are stored (default: the
+    ``FCOL_REFERENCE_CACHE`` environment variable, else no cache), keyed by a
+    hash of every input: the callables by their code, closure values and the
+    plain values (numbers, strings, arrays) and functions they name as
+    globals, or by ``cache_key`` if given (pass one when a callable depends
+    on anything else that may change).
+
+    Pixels are trusted except rays whose bracket closed on a jump of f (the
+    vertical wall of a step: hit kept, ``stats["walls"]``) and misses next
+    to an unresolved graze thinner than 1e-3 pixel.
     """
+    parts = ("height", cache_key or (_fingerprint(f), _fingerprint(grad)), repr(domain), _view_numbers(view),
+             int(width), int(height), mesh, march_cells)
+    return _cached(cache, parts, lambda: _height_reference(f, grad, domain, view, width, height, mesh, march_cells, chunk))
+
+
+def _height_reference(f, grad, domain, view, width, height, mesh, march_cells, chunk) -> Reference:
     t_start = time.perf_counter()
     u0, u1, v0, v1 = _as_domain(domain)
     W, H = int(width), int(height)
@@ -297,7 +418,15 @@ def height_reference(
         return Reference(trusted=np.ones((H, W), bool), pixel_size=pix_all, stats=stats, **out)
     wlo, whi = float(ww[finite].min()), float(ww[finite].max())
     scale = max(abs(u1 - u0), abs(v1 - v0), abs(wlo), abs(whi))
-    margin = 0.25 * (whi - wlo) + 1e-9 * scale + 1e-300
+    # Between vertices f may rise above the sampled range by at most about
+    # |grad|·cell (a spike between vertices): widen the slab by that too.
+    with np.errstate(all="ignore"):
+        gu, gv = grad(uu, vv)
+        gabs = np.abs(np.stack(np.broadcast_arrays(np.asarray(gu, float), np.asarray(gv, float))))
+    gabs = gabs[np.isfinite(gabs)]
+    gmax = float(gabs.max()) if gabs.size else 0.0
+    cell0 = max(u1 - u0, v1 - v0) / (n - 1)
+    margin = 0.05 * (whi - wlo) + gmax * cell0 + 1e-9 * scale + 1e-300
     lo = np.array([u0, v0, wlo - margin])
     hi = np.array([u1, v1, whi + margin])
     s_in, s_out = _slab(O, D, lo, hi)
@@ -417,7 +546,8 @@ def height_reference(
             L = B - A
             dang = ~sc & (forced | _dangerous(GA, GB, GPA, GPB, L)) & (A < br_a[rid])
             small = dang & (L <= hmin[rid])
-            unresolved[rid[small]] = True
+            # A graze thinner than hmin (not the edge of a NaN hole).
+            unresolved[rid[small & np.isfinite(GA) & np.isfinite(GB)]] = True
             dang &= ~small
             forced = np.zeros(0, bool)
             if not dang.any():
@@ -450,7 +580,6 @@ def height_reference(
     # step), not on a root. The ray meets the wall there; keep the hit but do
     # not trust its normal and depth.
     gx, _ = rays.g(hitr, s_hit)
-    dot = D[hitr] @ cam.d
     pix_hit = cam.pixel_size(np.abs((O[hitr] + s_hit[:, None] * D[hitr] - cam.origin) @ cam.d)) if cam.persp else np.full(hitr.size, cam.p)
     wall = ~(np.abs(gx) <= 1e-4 * pix_hit + 1e-12 * scale)
     stats["walls"] = int(np.sum(wall & good))
@@ -627,7 +756,8 @@ def angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, -1)))
 
 
-def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = None, disc_tol_px: float = 3.0) -> dict:
+def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = None, disc_tol_px: float = 3.0,
+            valid: np.ndarray | None = None) -> dict:
     """Errors of a render against a reference (SPEC §5), on whatever
     buffers ``image`` holds.
 
@@ -642,11 +772,14 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
     * ``side_bad``: compared pixels whose side differs;
     * ``farther_sheet``: compared pixels more than one pixel deeper than the
       reference (a farther sheet taken for the nearest);
+    * ``intensity_err_median``, ``_p99``, ``_max``: |intensity − intensity of
+      :func:`shade` of the reference|;
     * ``ssim``: skimage's structural similarity of ``rgb`` against
       :func:`shade` of the reference (``shading`` = its keyword options);
     * ``n_compared``: pixels compared — trusted reference pixels where both
       have surface, away from the silhouette band and from the 1-pixel bands
-      at depth discontinuities (:func:`discontinuity_band`).
+      at depth discontinuities (:func:`discontinuity_band`), and inside
+      ``valid`` (an optional (H, W) bool mask) when given.
     """
     H, W = ref.mask.shape
     res: dict[str, Any] = {}
@@ -661,6 +794,8 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
     else:
         both = ref.mask.copy()
     cmp = both & ref.trusted & ~sil & ~disc
+    if valid is not None:
+        cmp &= np.asarray(valid, bool)
     res["n_compared"] = int(cmp.sum())
 
     def stats(name: str, err: np.ndarray) -> None:
@@ -685,10 +820,14 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
             res["uv_err_median"] = float(np.median(e))
     if getattr(image, "side", None) is not None:
         res["side_bad"] = int(np.sum((np.asarray(image.side) != ref.side) & cmp))
+    shaded = None
+    if getattr(image, "intensity", None) is not None:
+        shaded = shade(ref, view, **(shading or {}))
+        stats("intensity_err", np.where(cmp, np.abs(np.asarray(image.intensity, float) - shaded[0]), np.nan))
     if getattr(image, "rgb", None) is not None:
         from skimage.metrics import structural_similarity
 
-        _, rgb = shade(ref, view, **(shading or {}))
+        _, rgb = shaded or shade(ref, view, **(shading or {}))
         res["ssim"] = float(structural_similarity(np.asarray(image.rgb), rgb, channel_axis=2, data_range=255))
     return res
 
@@ -740,6 +879,8 @@ class _ParamSolver:
         self.xyz, self.jac, self.O, self.D, self.box = xyz, jac, O, D, box
         self.periodic, self.tol, self.cam = periodic, tol, cam
         self.evals = 0
+        self.reseeded = 0
+        self.times: dict[str, float] = {}
 
     def wrap(self, u, v):
         u0, u1, v0, v1 = self.box
@@ -760,36 +901,41 @@ class _ParamSolver:
         u, v = self.wrap(np.asarray(u, float).copy(), np.asarray(v, float).copy())
         s = np.asarray(s, float).copy()
         ok = np.zeros(rid.size, bool)
-        live = np.ones(rid.size, bool)
+        i = np.arange(rid.size)
         su = 0.5 * (self.box[1] - self.box[0])
         sv = 0.5 * (self.box[3] - self.box[2])
+
+        def cross(a, b):
+            return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+        def dot(a, b):
+            return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
         for _ in range(iters):
-            i = np.nonzero(live)[0]
             if not i.size:
                 break
             P = _xyz(self.xyz, u[i], v[i])
-            F = P - O[i] - s[i, None] * D[i]
-            res = np.linalg.norm(F, axis=-1)
+            Oi, Di = O[i], D[i]
+            F = P - Oi - s[i, None] * Di
+            res = np.sqrt(np.einsum("ij,ij->i", F, F))
             conv = res <= self.tol
             ok[i[conv]] = True
-            bad = ~np.isfinite(res)
-            live[i[conv | bad]] = False
-            i, F = i[~conv & ~bad], F[~conv & ~bad]
+            keep = ~conv & np.isfinite(res)
+            i, F, Di = i[keep], F[keep], Di[keep]
             if not i.size:
                 break
             Pu, Pv = _jac(self.jac, u[i], v[i])
-            c2 = -D[i]
-            b = -F
+            pu, pv, c2, b = Pu.T, Pv.T, (-Di).T, (-F).T
             with np.errstate(all="ignore"):
-                det = np.sum(Pu * np.cross(Pv, c2), -1)
-                du = np.sum(b * np.cross(Pv, c2), -1) / det
-                dv = np.sum(Pu * np.cross(b, c2), -1) / det
-                ds = np.sum(Pu * np.cross(Pv, b), -1) / det
+                pv_c2 = cross(pv, c2)
+                det = dot(pu, pv_c2)
+                du = dot(b, pv_c2) / det
+                dv = dot(pu, cross(b, c2)) / det
+                ds = dot(pu, cross(pv, b)) / det
                 # Damp huge parameter steps (keep the direction).
                 k = np.minimum(1.0, 0.5 / np.maximum(np.abs(du) / su, np.abs(dv) / sv))
             k = np.where(np.isfinite(k), k, 0.0)
             good = np.isfinite(du) & np.isfinite(dv) & np.isfinite(ds)
-            live[i[~good]] = False
             i, k, du, dv, ds = i[good], k[good], du[good], dv[good], ds[good]
             u[i], v[i] = self.wrap(u[i] + k * du, v[i] + k * dv)
             s[i] = s[i] + k * ds
@@ -827,7 +973,10 @@ def _param_single(solver: _ParamSolver, n: int, H: int, W: int, s_back: np.ndarr
 
         mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
         start = O + s_back[:, None] * D
+        t0 = time.perf_counter()
         it, ir, loc = RayMeshIntersector(mesh).intersects_id(start, D, multiple_hits=True, max_hits=16, return_locations=True)
+        solver.times["cast"] = solver.times.get("cast", 0.0) + time.perf_counter() - t0
+        t0 = time.perf_counter()
         if it.size:
             tri = verts[faces[it]]
             bary = trimesh.triangles.points_to_barycentric(tri, loc)
@@ -835,41 +984,45 @@ def _param_single(solver: _ParamSolver, n: int, H: int, W: int, s_back: np.ndarr
             s0 = np.sum((loc - O[ir]) * D[ir], -1)
             u, v, s, ok = solver.newton(ir, uv0[:, 0], uv0[:, 1], s0)
             _keep_nearest(best_s, best_u, best_v, ir[ok], s[ok], u[ok], v[ok])
+        solver.times["newton"] = solver.times.get("newton", 0.0) + time.perf_counter() - t0
 
     # Re-seed from neighbours where a pixel misses or is much deeper than one.
     cam = solver.cam
+    changed = np.isfinite(best_s).reshape(H, W)  # neighbours worth seeding from
+    t0 = time.perf_counter()
     for _ in range(passes):
         depth = np.where(np.isfinite(best_s), best_s * (D @ cam.d) + (O - cam.origin) @ cam.d, np.nan).reshape(H, W)
         pix = cam.pixel_size(np.abs(depth)) if cam.persp else np.full((H, W), cam.p)
         hit = np.isfinite(depth)
         rid_l, src_l = [], []
+        depth_p = np.pad(depth, 1, constant_values=np.nan)
+        changed_p = np.pad(changed, 1, constant_values=False)
+        index_p = np.pad(np.arange(N).reshape(H, W), 1, constant_values=-1)
         for di in (-1, 0, 1):
             for dj in (-1, 0, 1):
                 if di == 0 and dj == 0:
                     continue
-                src = np.full((H, W), -1)
-                ii, jj = np.mgrid[0:H, 0:W]
-                si, sj = ii + di, jj + dj
-                inb = (si >= 0) & (si < H) & (sj >= 0) & (sj < W)
-                sic, sjc = np.clip(si, 0, H - 1), np.clip(sj, 0, W - 1)
-                nd = depth[sic, sjc]
+                win = (slice(1 + di, 1 + di + H), slice(1 + dj, 1 + dj + W))
+                nd = depth_p[win]
                 with np.errstate(invalid="ignore"):
-                    need = inb & np.isfinite(nd) & (~hit | (depth > nd + reseed_px * pix))
-                src[need] = (sic * W + sjc)[need]
-                r = np.nonzero(need.reshape(-1))[0]
+                    need = changed_p[win] & np.isfinite(nd) & (~hit | (depth > nd + reseed_px * pix))
+                r = np.flatnonzero(need)
                 rid_l.append(r)
-                src_l.append(src.reshape(-1)[r])
+                src_l.append(index_p[win].reshape(-1)[r])
         rid = np.concatenate(rid_l)
         src = np.concatenate(src_l)
         if not rid.size:
             break
         # Start from the neighbour's parameters, at the depth of its hit.
         s_seed = best_s[src] * (D[src] @ cam.d) / (D[rid] @ cam.d) + ((O[src] - O[rid]) @ cam.d) / (D[rid] @ cam.d)
-        u, v, s, ok = solver.newton(rid, best_u[src], best_v[src], s_seed)
+        u, v, s, ok = solver.newton(rid, best_u[src], best_v[src], s_seed, iters=25)
         before = best_s.copy()
         _keep_nearest(best_s, best_u, best_v, rid[ok], s[ok], u[ok], v[ok])
-        if np.array_equal(before, best_s, equal_nan=True):
+        changed = (best_s != before).reshape(H, W)
+        solver.reseeded += rid.size
+        if not changed.any():
             break
+    solver.times["reseed"] = solver.times.get("reseed", 0.0) + time.perf_counter() - t0
     return best_s, best_u, best_v
 
 
@@ -898,6 +1051,8 @@ def parametric_reference(
     reseed_px: float = 4.0,
     passes: int = 8,
     agree_px: float = 1e-6,
+    cache: Any = None,
+    cache_key: str | None = None,
 ) -> Reference:
     """The exact nearest hit of every pixel ray with P(u, v) = (X, Y, Z).
 
@@ -909,8 +1064,17 @@ def parametric_reference(
     rounds). The result keeps the nearest root any tessellation found;
     ``trusted`` marks pixels where every tessellation found the same hit
     (or the same miss) within ``agree_px`` pixels. ``periodic`` wraps u / v
-    instead of clamping them during Newton (sphere, torus).
+    instead of clamping them during Newton (sphere, torus). ``cache`` and
+    ``cache_key`` as for :func:`height_reference`.
     """
+    parts = ("parametric", cache_key or (_fingerprint(xyz), _fingerprint(jac)), repr(domain), _view_numbers(view),
+             int(width), int(height), tuple(tessellations), tuple(periodic), reseed_px, passes, agree_px)
+    return _cached(cache, parts, lambda: _parametric_reference(xyz, jac, domain, view, width, height, tessellations,
+                                                               periodic, reseed_px, passes, agree_px))
+
+
+def _parametric_reference(xyz, jac, domain, view, width, height, tessellations, periodic, reseed_px, passes,
+                          agree_px) -> Reference:
     t_start = time.perf_counter()
     u0, u1, v0, v1 = _as_domain(domain)
     W, H = int(width), int(height)
@@ -926,7 +1090,7 @@ def parametric_reference(
     Ps = Ps[np.isfinite(Ps).all(-1)]
     if Ps.size == 0:
         out = _empty(H, W)
-        return Reference(trusted=np.ones((H, W), bool), pixel_size=np.full((H, W), np.nan), **out)
+        return Reference(trusted=np.ones((H, W), bool), pixel_size=np.full((H, W), np.nan), stats={}, **out)
     lo, hi = Ps.min(0), Ps.max(0)
     ext = float((hi - lo).max()) or 1.0
     scale = max(ext, float(np.abs(Ps).max()))
@@ -977,8 +1141,54 @@ def parametric_reference(
         "elapsed": time.perf_counter() - t_start,
         "t_tessellations": times,
         "evaluations": solver.evals,
+        "reseeded": solver.reseeded,
+        **{"t_" + k: v for k, v in solver.times.items()},
         "disagree": int(np.sum(~trusted)),
         "found_by_one_tessellation": int(np.sum(np.isfinite(S).any(0) & ~all_hit)),
     }
     return Reference(trusted=trusted.reshape(H, W), pixel_size=pix.reshape(H, W), stats=stats, **out)
 
+
+
+def grid_bilinear(z: Any, extent: Any) -> tuple[Callable, Callable]:
+    """(f, grad) of the bilinear interpolant of a height grid, for
+    :func:`height_reference`: ``z[i, j]`` is the height at
+    u_j = u0 + j·du, v_i = v0 + i·dv over ``extent = (u0, u1, v0, v1)``
+    (SPEC §1 grids; v0 > v1 for north-up rasters). A cell with a NaN corner
+    is a hole. The gradient is that of the interpolant (one-sided on cell
+    edges, taken from the cell the point falls in).
+
+    >>> f, g = grid_bilinear([[0.0, 1.0], [2.0, 3.0]], (0, 1, 0, 1))
+    >>> float(f(0.5, 0.5)), tuple(float(x) for x in g(0.5, 0.5))
+    (1.5, (1.0, 2.0))
+    """
+    z = np.asarray(z, float)
+    if z.ndim != 2 or min(z.shape) < 2:
+        raise ValueError(f"z: expected a 2-D grid of at least 2x2, got shape {z.shape}")
+    u0, u1, v0, v1 = (float(x) for x in extent)
+    ny, nx = z.shape
+    du, dv = (u1 - u0) / (nx - 1), (v1 - v0) / (ny - 1)
+
+    def locate(u, v):
+        x = (np.asarray(u, float) - u0) / du
+        y = (np.asarray(v, float) - v0) / dv
+        j = np.clip(np.floor(x), 0, nx - 2).astype(np.intp)
+        i = np.clip(np.floor(y), 0, ny - 2).astype(np.intp)
+        return x - j, y - i, i, j
+
+    def corners(i, j):
+        return z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]
+
+    def f(u, v):
+        tx, ty, i, j = locate(u, v)
+        a, b, c, d = corners(i, j)
+        return (a * (1 - tx) + b * tx) * (1 - ty) + (c * (1 - tx) + d * tx) * ty
+
+    def grad(u, v):
+        tx, ty, i, j = locate(u, v)
+        a, b, c, d = corners(i, j)
+        fu = ((b - a) * (1 - ty) + (d - c) * ty) / du
+        fv = ((c - a) * (1 - tx) + (d - b) * tx) / dv
+        return fu, fv
+
+    return f, grad
