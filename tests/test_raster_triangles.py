@@ -263,3 +263,17 @@ def test_triangles_bad_input() -> None:
     bad[0, 0] = np.inf
     d, _ = raster.triangles(bad, tri, None, (4, 4))
     assert np.all(np.isnan(d))
+
+
+def test_extreme_coordinates_do_not_crash() -> None:
+    big = np.array([[-1e300, -1e300, 1.0], [-1e300, 1e300, 1.0], [1e300, 0.0, 1.0], [5e7, 5e7, 1.0]])
+    d, _ = raster.triangles(big, [[0, 1, 2], [0, 1, 3], [1, 2, 3]], None, (8, 8))
+    assert d.shape == (8, 8)  # overflowing faces are holes, others drawn or not, no crash
+    # A huge triangle covering the image: every pixel, constant depth.
+    cover = np.array([[-1e7, -1e7, 2.0], [-1e7, 1e8, 2.0], [1e8, -1e7, 2.0]])
+    d, _ = raster.triangles(cover, [[0, 1, 2]], None, (8, 8))
+    np.testing.assert_array_equal(d, 2.0)
+    # Sub-pixel triangles cover at most the pixel whose centre they contain.
+    tiny = np.array([[3.0, 3.0, 1.0], [3.0, 3.0 + 1e-9, 1.0], [3.0 + 1e-9, 3.0, 1.0]])
+    d, _ = raster.triangles(tiny, [[0, 1, 2]], None, (8, 8))
+    assert np.sum(~np.isnan(d)) <= 1

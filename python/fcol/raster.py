@@ -130,8 +130,13 @@ def polygon(
     count twice). ``rule="evenodd"`` fills where a ray to the right crosses
     the outline an odd number of times, ``rule="nonzero"`` where the winding
     number is not zero; they differ only for self-crossing outlines (the
-    centre of a pentagram). With ``"evenodd"`` the result equals
-    ``skimage.draw.polygon``.
+    centre of a pentagram).
+
+    Compared with ``skimage.draw.polygon``: the same pixels, except centres
+    lying exactly on the outline, which scikit-image always fills and fcol
+    fills only on top and left edges (so two polygons sharing an edge never
+    both fill its pixels). For vertices in general position no centre lies
+    on the outline and the results are identical.
 
     ``shape`` (height, width, ...) clips the result to an image; pixels with
     negative coordinates are never returned. Fewer than three vertices give

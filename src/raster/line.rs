@@ -21,34 +21,35 @@ pub fn line(r0: i64, c0: i64, r1: i64, c1: i64) -> Result<(Vec<i64>, Vec<i64>)> 
     let (dr, dc) = ((r1 - r0).abs(), (c1 - c0).abs());
     let sr = if r1 > r0 { 1 } else { -1 };
     let sc = if c1 > c0 { 1 } else { -1 };
-    let mut rr = Vec::with_capacity(n);
-    let mut cc = Vec::with_capacity(n);
-    // (major, minor) = (column, row) unless the line is steep.
+    let mut rr = vec![0i64; n];
+    let mut cc = vec![0i64; n];
+    // (major, minor) = (column, row) unless the line is steep; write the
+    // major/minor coordinates into the matching outputs.
     let steep = dr > dc;
     let (dmaj, dmin, smaj, smin) = if steep {
         (dr, dc, sr, sc)
     } else {
         (dc, dr, sc, sr)
     };
-    let (mut maj, mut min) = if steep { (r0, c0) } else { (c0, r0) };
+    let (maj0, mut min) = if steep { (r0, c0) } else { (c0, r0) };
+    let (majs, mins) = if steep {
+        (&mut rr, &mut cc)
+    } else {
+        (&mut cc, &mut rr)
+    };
     let mut d = 2 * dmin - dmaj;
-    for _ in 0..dmaj {
-        if steep {
-            rr.push(maj);
-            cc.push(min);
-        } else {
-            rr.push(min);
-            cc.push(maj);
-        }
-        if d >= 0 {
-            min += smin;
-            d -= 2 * dmaj;
-        }
+    let mut maj = maj0;
+    for (a, b) in majs.iter_mut().zip(mins.iter_mut()).take(n - 1) {
+        *a = maj;
+        *b = min;
+        // Branch-free form of: if d >= 0 { min += smin; d -= 2·dmaj }.
+        let step = (d >= 0) as i64;
+        min += smin * step;
+        d += 2 * dmin - 2 * dmaj * step;
         maj += smaj;
-        d += 2 * dmin;
     }
-    rr.push(r1);
-    cc.push(c1);
+    rr[n - 1] = r1;
+    cc[n - 1] = c1;
     Ok((rr, cc))
 }
 

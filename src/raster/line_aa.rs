@@ -28,42 +28,38 @@ pub fn line_aa(r0: i64, c0: i64, r1: i64, c1: i64) -> Result<(Vec<i64>, Vec<i64>
         (dc, dr, sc, sr)
     };
     let (maj0, min0) = if steep { (r0, c0) } else { (c0, r0) };
-    let mut rr = Vec::with_capacity(2 * len);
-    let mut cc = Vec::with_capacity(2 * len);
-    let mut vv = Vec::with_capacity(2 * len);
-    let mut push = |maj: i64, min: i64, v: f64| {
-        if steep {
-            rr.push(maj);
-            cc.push(min);
-        } else {
-            rr.push(min);
-            cc.push(maj);
-        }
-        vv.push(v);
-    };
     if n == 0 {
-        push(maj0, min0, 1.0);
-        return Ok((rr, cc, vv));
+        return Ok((vec![r0], vec![c0], vec![1.0]));
     }
+    // At most two pixels per step; the exact count is 2·len − #(rem = 0).
+    let mut majs = vec![0i64; 2 * len];
+    let mut mins = vec![0i64; 2 * len];
+    let mut vv = vec![0f64; 2 * len];
     let nf = n as f64;
     // Minor offset at step k is dmin·k / n = q + rem / n.
     let (mut q, mut rem) = (0i64, 0i64);
+    let mut out = 0;
     for k in 0..=n {
         let maj = maj0 + smaj * k;
         let m = min0 + smin * q;
-        if rem == 0 {
-            push(maj, m, 1.0);
-        } else {
-            let e = rem as f64 / nf;
-            push(maj, m, 1.0 - e);
-            push(maj, m + smin, e);
-        }
+        let e = rem as f64 / nf;
+        majs[out] = maj;
+        mins[out] = m;
+        vv[out] = 1.0 - e;
+        majs[out + 1] = maj;
+        mins[out + 1] = m + smin;
+        vv[out + 1] = e;
+        // Keep the second pixel only when its weight is not zero.
+        out += 1 + (rem != 0) as usize;
         rem += dmin;
-        if rem >= n {
-            rem -= n;
-            q += 1;
-        }
+        let carry = (rem >= n) as i64;
+        rem -= n * carry;
+        q += carry;
     }
+    majs.truncate(out);
+    mins.truncate(out);
+    vv.truncate(out);
+    let (rr, cc) = if steep { (majs, mins) } else { (mins, majs) };
     Ok((rr, cc, vv))
 }
 

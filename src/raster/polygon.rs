@@ -54,8 +54,11 @@ struct Edge {
 ///   parity as counting it twice) and any other vertex once;
 /// * the crossing of each active edge is evaluated directly for each scan
 ///   line instead of by adding 1/m (the notes' incremental form), so no
-///   error accumulates and the fill equals scikit-image's
-///   `draw.polygon` (a per-pixel crossing test with the same rules) exactly.
+///   error accumulates.
+///
+/// The result equals scikit-image's `draw.polygon` (a per-pixel crossing
+/// test) except at pixel centres exactly on the outline, which scikit-image
+/// always fills and this rule fills on top and left edges only.
 ///
 /// Pixels at negative rows or columns are never returned (they would wrap
 /// around in NumPy indexing); `shape` = (height, width) clips further.

@@ -511,4 +511,40 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn spans_equal_the_per_pixel_edge_test() {
+        // The span search relies on the monotonicity of the rounded edge
+        // functions; check it against testing every pixel of the box.
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for k in 0..2000 {
+            let scale = if k % 3 == 0 { 4.0 } else { 40.0 };
+            let mut v = [[0.0; 3]; 3];
+            for p in &mut v {
+                *p = [rnd() * scale - 2.0, rnd() * scale - 2.0, 1.0];
+                if k % 5 == 0 {
+                    p[0] = p[0].round(); // integer coordinates: many ties
+                    p[1] = p[1].round();
+                }
+            }
+            let Some(s) = setup(&v, [0, 1, 2], 40, 40, &TriangleOptions::default()) else {
+                continue;
+            };
+            for r in s.r0..=s.r1 {
+                let y = r as f64;
+                let (lo, hi) = span(&s, y);
+                for c in s.c0..=s.c1 {
+                    let x = c as f64;
+                    let inside = s.edges.iter().all(|e| e.inside_with(e.row(y), x));
+                    assert_eq!(inside, lo <= c && c <= hi, "triangle {v:?} pixel {r},{c}");
+                }
+            }
+        }
+    }
 }
