@@ -9,17 +9,23 @@ between. Every render reports its time and sample count; the benchmarks
 
 from __future__ import annotations
 
-from . import raster
+from . import horizon, raster
 from ._fcol import ExpressionError, View, __version__, build_profile
+from .horizon import HorizonMap, horizon_map, horizon_points, shade_terrain
 from .image import Image
 from .render import render
 
 __all__ = [
     "ExpressionError",
+    "HorizonMap",
     "Image",
     "View",
     "__version__",
     "build_profile",
+    "horizon",
+    "horizon_map",
+    "horizon_points",
     "raster",
     "render",
+    "shade_terrain",
 ]
