@@ -328,7 +328,7 @@ pub fn validate(t: &Terrain, o: &Options) -> Result<()> {
         }
     }
     if let Some(d) = o.max_distance {
-        if !(d > 0.0) || d.is_nan() {
+        if d.is_nan() || d <= 0.0 {
             return Err(FcolError::value(
                 "max_distance",
                 format!("must be positive, got {d}"),

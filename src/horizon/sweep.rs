@@ -28,7 +28,7 @@ pub fn fast_atan(x: f64) -> f64 {
     let (sgn, a) = if x < 0.0 { (-1.0, -x) } else { (1.0, x) };
     let (base, t) = if a > 2.414213562373095 {
         (FRAC_PI_2, -1.0 / a)
-    } else if a > 0.4142135623730950 {
+    } else if a > 0.414_213_562_373_095 {
         (FRAC_PI_4, (a - 1.0) / (a + 1.0))
     } else {
         (0.0, a)
