@@ -79,6 +79,111 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
     }
 }
 
+const INLINE: usize = 3;
+const NO_SPILL: u32 = u32::MAX;
+
+/// One slot of the tree: the count of unprocessed leaves in its left
+/// subtree and its hull, inline up to three points (one cache line), in a
+/// recycled spill vector beyond.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Node {
+    open: u32,
+    len: u32,
+    spill: u32,
+    _pad: u32,
+    pts: [Proj; INLINE],
+}
+
+struct Tree {
+    node: Vec<Node>,
+    spill: Vec<Vec<Proj>>,
+    free: Vec<u32>,
+    scratch: Vec<Proj>,
+}
+
+impl Tree {
+    fn new(n: usize, big_n: usize) -> Tree {
+        let empty = Node {
+            open: 0,
+            len: 0,
+            spill: NO_SPILL,
+            _pad: 0,
+            pts: [Proj { w: 0.0, zz: 0.0 }; INLINE],
+        };
+        let mut node = vec![empty; big_n.max(1)];
+        for k in 0..n {
+            let mut x = big_n + k;
+            while x > 1 {
+                if x & 1 == 0 {
+                    node[x >> 1].open += 1;
+                }
+                x >>= 1;
+            }
+        }
+        Tree {
+            node,
+            spill: Vec::new(),
+            free: Vec::new(),
+            scratch: Vec::with_capacity(INLINE + 1),
+        }
+    }
+
+    #[inline]
+    fn hull(&self, m: usize) -> &[Proj] {
+        let nd = &self.node[m];
+        if nd.spill == NO_SPILL {
+            &nd.pts[..nd.len as usize]
+        } else {
+            &self.spill[nd.spill as usize]
+        }
+    }
+
+    /// A leaf of m's left subtree was processed; discard the hull when none
+    /// is left (the slot becomes inactive, §IV-C).
+    #[inline]
+    fn close_one(&mut self, m: usize) {
+        let nd = &mut self.node[m];
+        nd.open -= 1;
+        if nd.open == 0 {
+            nd.len = 0;
+            if nd.spill != NO_SPILL {
+                self.spill[nd.spill as usize].clear();
+                self.free.push(nd.spill);
+                nd.spill = NO_SPILL;
+            }
+        }
+    }
+
+    fn insert(&mut self, m: usize, q: Proj) {
+        let nd = &mut self.node[m];
+        if nd.spill != NO_SPILL {
+            insert(&mut self.spill[nd.spill as usize], q);
+            return;
+        }
+        self.scratch.clear();
+        self.scratch.extend_from_slice(&nd.pts[..nd.len as usize]);
+        insert(&mut self.scratch, q);
+        if self.scratch.len() <= INLINE {
+            nd.pts[..self.scratch.len()].copy_from_slice(&self.scratch);
+            nd.len = self.scratch.len() as u32;
+        } else {
+            let id = match self.free.pop() {
+                Some(id) => id,
+                None => {
+                    self.spill.push(Vec::new());
+                    (self.spill.len() - 1) as u32
+                }
+            };
+            let v = &mut self.spill[id as usize];
+            v.clear();
+            v.extend_from_slice(&self.scratch);
+            nd.spill = id;
+            nd.len = 0;
+        }
+    }
+}
+
 /// One sector for every point (`plane` has one value per terrain point).
 pub fn sector(
     t: &Terrain,
@@ -126,18 +231,7 @@ pub fn sector(
     }
     drop(by_b);
     let big_n = n.next_power_of_two();
-    // Unprocessed leaves in the left subtree of each slot.
-    let mut left_open = vec![0u32; big_n];
-    for k in 0..n {
-        let mut x = big_n + k;
-        while x > 1 {
-            if x & 1 == 0 {
-                left_open[x >> 1] += 1;
-            }
-            x >>= 1;
-        }
-    }
-    let mut hull: Vec<Vec<Proj>> = (0..big_n).map(|_| Vec::new()).collect();
+    let mut tree = Tree::new(n, big_n);
     for (step, &i) in order.iter().enumerate() {
         if step % 4096 == 4095 {
             cancel.check()?;
@@ -151,7 +245,7 @@ pub fn sector(
             let m = x >> 1;
             if x & 1 == 0 {
                 // Step 1: the left child's hull covers part of Σ_{*,k}.
-                let h = &hull[m];
+                let h = tree.hull(m);
                 if !h.is_empty() {
                     let c = h[tangent(h, p)];
                     best = match best {
@@ -159,13 +253,10 @@ pub fn sector(
                         _ => Some(c),
                     };
                 }
-                left_open[m] -= 1;
-                if left_open[m] == 0 {
-                    hull[m] = Vec::new(); // inactive: discard
-                }
-            } else if left_open[m] > 0 {
+                tree.close_one(m);
+            } else if tree.node[m].open > 0 {
                 // Step 2: join the covering sets of Σ_{*,t}, t < k.
-                insert(&mut hull[m], p);
+                tree.insert(m, p);
             }
             x = m;
         }
