@@ -50,3 +50,30 @@ class View:
         self, width: int, height: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
     def __eq__(self, other: object) -> bool: ...
+
+# -- horizon maps (fcol.horizon) -------------------------------------------
+def horizon_grid(
+    z: npt.NDArray[np.float64],
+    du: float,
+    dv: float,
+    sectors: int,
+    method: str,
+    subset: list[int] | None = None,
+    max_distance: float | None = None,
+    curvature: float = 0.0,
+    near_vertex: bool = False,
+    progress: object | None = None,
+) -> tuple[npt.NDArray[np.float32], float]: ...
+def horizon_points(
+    x: npt.NDArray[np.float64],
+    y: npt.NDArray[np.float64],
+    z: npt.NDArray[np.float64],
+    sectors: int,
+    method: str,
+    subset: list[int] | None = None,
+    max_distance: float | None = None,
+    progress: object | None = None,
+) -> tuple[npt.NDArray[np.float32], float]: ...
+def horizon_hull_stats(
+    z: npt.NDArray[np.float64], du: float, dv: float, sectors: int, sector: int
+) -> tuple[float, int]: ...
