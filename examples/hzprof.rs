@@ -16,11 +16,12 @@ fn main() {
         .collect();
     let t = Terrain::from_grid(z, n, n, 1.0, 1.0).unwrap();
     let mut o = Options::new(sectors, m);
-    o.subset = Some(vec![3]);
+    let k: usize = args.get(4).map(|s| s.parse().unwrap()).unwrap_or(1);
+    o.subset = Some((0..k).map(|i| (3 + i * 7) % sectors).collect());
     let t0 = std::time::Instant::now();
     let _ = compute(&t, &o, &_fcol::Cancel::new(), &Progress::default()).unwrap();
     println!(
-        "{m:?} 1 sector {:.1} ns/pt (wall)",
-        t0.elapsed().as_secs_f64() * 1e9 / (n * n) as f64
+        "{m:?} {k} sectors {:.1} ns/pt/dir (wall)",
+        t0.elapsed().as_secs_f64() * 1e9 / (n * n * k) as f64
     );
 }
