@@ -28,25 +28,24 @@ pub fn all(
         plane_of[i] = pi;
     }
     let frames: Vec<Frame> = (0..s).map(|i| Frame::new(i, s)).collect();
-    // per requested sector: keys and projections of every point
+    // keys and projections, point-major: pre[q * k + plane]
+    #[derive(Clone, Copy)]
     struct Pre {
-        a: Vec<f64>,
-        b: Vec<f64>,
-        p: Vec<Proj>,
+        a: f64,
+        b: f64,
+        p: Proj,
     }
-    let pre: Vec<Pre> = list
-        .iter()
-        .map(|&i| {
+    let mut pre = Vec::with_capacity(n * k);
+    for q in 0..n {
+        for &i in &list {
             let f = &frames[i];
-            Pre {
-                a: (0..n).map(|q| f.key_a(t.x[q], t.y[q])).collect(),
-                b: (0..n).map(|q| f.key_b(t.x[q], t.y[q])).collect(),
-                p: (0..n)
-                    .map(|q| project(f, t.x[q], t.y[q], t.z[q], o.curvature))
-                    .collect(),
-            }
-        })
-        .collect();
+            pre.push(Pre {
+                a: f.key_a(t.x[q], t.y[q]),
+                b: f.key_b(t.x[q], t.y[q]),
+                p: project(f, t.x[q], t.y[q], t.z[q], o.curvature),
+            });
+        }
+    }
     let valid: Vec<usize> = (0..n).filter(|&q| t.z[q].is_finite()).collect();
     let d2max = o.max_distance.map(|d| d * d);
     let mut res = vec![0.0f32; n * k];
@@ -81,15 +80,14 @@ pub fn all(
                     if pi == usize::MAX {
                         continue;
                     }
-                    let pr = &pre[pi];
-                    let (aq, ap, bq, bp) = (pr.a[q], pr.a[p], pr.b[q], pr.b[p]);
-                    if !(aq <= ap && bq >= bp) || (aq == ap && bq == bp) {
+                    let (kq, kp) = (pre[q * k + pi], pre[p * k + pi]);
+                    if !(kq.a <= kp.a && kq.b >= kp.b) || (kq.a == kp.a && kq.b == kp.b) {
                         continue;
                     }
                     match best[pi] {
                         None => best[pi] = Some(q),
                         Some(c) => {
-                            if better(pr.p[p], pr.p[c], pr.p[q]) {
+                            if better(kp.p, pre[c * k + pi].p, kq.p) {
                                 best[pi] = Some(q)
                             }
                         }
@@ -99,7 +97,7 @@ pub fn all(
             for pi in 0..k {
                 row[pi] = match best[pi] {
                     None => EMPTY,
-                    Some(q) => elevation(pre[pi].p[p], pre[pi].p[q], o.curvature),
+                    Some(q) => elevation(pre[p * k + pi].p, pre[q * k + pi].p, o.curvature),
                 };
             }
             progress.add(k);
