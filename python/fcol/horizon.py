@@ -483,8 +483,11 @@ def horizon_points(
 
     >>> import numpy as np, fcol
     >>> e = fcol.horizon_points([0, 1, 2], [0, 0, 0], [0, 1, 0], sectors=4)
-    >>> float(np.degrees(e[0, 0]))   # sector 0 of the first point holds (1, 0, 1)
-    45.0
+    >>> # sector 0 (azimuths 0..90°) of the first point holds (1, 0, 1); its
+    >>> # elevation is measured in the plane of the 45° centre line, where
+    >>> # the point lies cos 45° away: atan(1 / 0.7071) = 54.74°
+    >>> round(float(np.degrees(e[0, 0])), 2)
+    54.74
     """
     if method not in ("stewart", "brute"):
         raise ValueError(f"method: scattered points take 'stewart' or 'brute', got {method!r}")
