@@ -252,7 +252,7 @@ class HorizonMap:
         elevation); or an (s, 256) table), regions partly under the horizon
         counted in proportion. Uniform L = 1 gives π × the sky-view factor
         (up to the sky below the horizontal, which this hemisphere omits)."""
-        if np.ndim(sky) == 0 and not callable(sky):
+        if not callable(sky) and np.ndim(sky) == 0:
             sky = np.full((self.sectors, 256), float(sky))  # type: ignore[arg-type]
         table = self.sky_table(sky)
         e, n = self._effective(normals)

@@ -160,9 +160,9 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
     try:
         from matplotlib.cbook import get_sample_data
 
-        dem = get_sample_data("jacksboro_fault_dem.npz")
+        dem: Any = get_sample_data("jacksboro_fault_dem.npz")
         zdem = dem["elevation"].astype(np.float64)
-        ext = (dem["xmin"], dem["xmax"], dem["ymin"], dem["ymax"])
+        ext = (float(dem["xmin"]), float(dem["xmax"]), float(dem["ymin"]), float(dem["ymax"]))
         hm = fcol.horizon_map(zdem, extent=ext, geographic=True, earth_curvature=False, sectors=72, method="stewart")
         svf = hm.sky_view_factor()
         rec = {"table": "svf-jacksboro", "fcol_stewart_mean": float(np.nanmean(svf)), "horizon_s": hm.elapsed}

@@ -31,16 +31,16 @@ def gallery(out_dir: Path) -> list[dict[str, Any]]:
     try:
         from matplotlib.cbook import get_sample_data
 
-        dem = get_sample_data("jacksboro_fault_dem.npz")
+        dem: Any = get_sample_data("jacksboro_fault_dem.npz")
     except Exception:  # pragma: no cover - matplotlib missing
         dem = None
     if dem is not None:
         z = dem["elevation"]
-        ext = (dem["xmin"], dem["xmax"], dem["ymin"], dem["ymax"])
+        ext = (float(dem["xmin"]), float(dem["xmax"]), float(dem["ymin"]), float(dem["ymax"]))
         t0 = time.perf_counter()
         hm = fcol.horizon_map(z, extent=ext, geographic=True, sectors=64, method="stewart")
         t_h = time.perf_counter() - t0
-        tiles = []
+        tiles: list[np.ndarray] = []
         t0 = time.perf_counter()
         # the sun rises in the east (+u), culminates to the south (−v), sets west
         for hour in (7, 8.5, 10, 12, 14, 15.5, 17, 18.5):
@@ -48,6 +48,7 @@ def gallery(out_dir: Path) -> list[dict[str, Any]]:
             el = math.radians(62) * math.cos(ha * 0.9) - math.radians(8)
             az = -math.pi / 2 - ha * 0.95  # east at dawn, south at noon, west at dusk
             img = fcol.shade_terrain(horizon=hm, sun_azimuth=az, sun_elevation=max(el, math.radians(2)), sun_radius=math.radians(0.27), outputs="rgb")
+            assert img.rgb is not None
             tiles.append(img.rgb)
         t_s = time.perf_counter() - t0
         pic = _grid(tiles, 4)
@@ -58,10 +59,11 @@ def gallery(out_dir: Path) -> list[dict[str, Any]]:
             "note": f"Jacksboro DEM {z.shape[1]}x{z.shape[0]}, 64-sector stewart horizons once ({t_h:.2f} s), 8 sun positions with soft shadows ({t_s:.2f} s)",
         })
         svf = hm.sky_view_factor()
-        g = np.clip((svf - np.nanpercentile(svf, 1)) / (1 - np.nanpercentile(svf, 1)), 0, 1)
-        g = (np.where(np.isfinite(g), g, 1) * 255).astype(np.uint8)[::-1] if hm.spacing[1] > 0 else (np.where(np.isfinite(g), g, 1) * 255).astype(np.uint8)
-        (out_dir / "horizon_jacksboro_svf.png").write_bytes(png_bytes(g))
-        rows.append({"section": "horizon", "file": "horizon_jacksboro_svf.png", "size": f"{g.shape[1]}x{g.shape[0]}", "ms": 0.0, "samples": int(z.size), "note": "sky-view factor from the same horizon map"})
+        gf = np.clip((svf - np.nanpercentile(svf, 1)) / (1 - np.nanpercentile(svf, 1)), 0, 1)
+        g8 = (np.where(np.isfinite(gf), gf, 1) * 255).astype(np.uint8)
+        g8 = np.ascontiguousarray(g8[::-1] if hm.spacing[1] > 0 else g8)
+        (out_dir / "horizon_jacksboro_svf.png").write_bytes(png_bytes(g8))
+        rows.append({"section": "horizon", "file": "horizon_jacksboro_svf.png", "size": f"{g8.shape[1]}x{g8.shape[0]}", "ms": 0.0, "samples": int(z.size), "note": "sky-view factor from the same horizon map"})
 
     # Fig. 8: 100x100 flat, one sample of height 50 in the upper-left corner,
     # an area light 30° above the horizon, seen from above.
@@ -77,8 +79,8 @@ def gallery(out_dir: Path) -> list[dict[str, Any]]:
             # an area light towards the upper left (azimuth 140°), where the
             # spike stands as seen from the rest of the terrain
             sh = hm.shadow(math.radians(140), math.radians(30), sun_radius=math.radians(12))
-            g = (np.clip(0.25 + 0.75 * sh, 0, 1) * 255).astype(np.uint8)[::-1]
-            tiles.append(np.repeat(np.kron(g, np.ones((2, 2), np.uint8))[..., None], 3, axis=2))
+            gs = (np.clip(0.25 + 0.75 * sh, 0, 1) * 255).astype(np.uint8)[::-1]
+            tiles.append(np.repeat(np.kron(gs, np.ones((2, 2), np.uint8))[..., None], 3, axis=2))
             notes.append(f"{m}@{s}: shadowed {float((sh < 0.999).mean()) * 100:.1f}%")
     ms = (time.perf_counter() - t0) * 1e3
     pic = _grid(tiles, 2)
