@@ -80,6 +80,7 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
 }
 
 const INLINE: usize = 3;
+const PREFETCH_AHEAD: usize = 8;
 const NO_SPILL: u32 = u32::MAX;
 
 /// One slot of the tree: the count of unprocessed leaves in its left
@@ -127,6 +128,18 @@ impl Tree {
             free: Vec::new(),
             scratch: Vec::with_capacity(INLINE + 1),
         }
+    }
+
+    #[inline]
+    fn prefetch(&self, m: usize) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: a prefetch hint never faults; the pointer is in bounds.
+        unsafe {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            _mm_prefetch(self.node.as_ptr().add(m) as *const i8, _MM_HINT_T0);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = m;
     }
 
     #[inline]
@@ -236,6 +249,15 @@ pub fn sector(
         if step % 4096 == 4095 {
             cancel.check()?;
             progress.add(4096);
+        }
+        // The walk is bound by memory latency (one slot per level, far
+        // apart): fetch the slots of a point a few steps ahead.
+        if let Some(&ahead) = order.get(step + PREFETCH_AHEAD) {
+            let mut x = big_n + rank[ahead as usize] as usize;
+            while x > 1 {
+                tree.prefetch(x >> 1);
+                x >>= 1;
+            }
         }
         let i = i as usize;
         let p = pr[i];
