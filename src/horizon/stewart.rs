@@ -113,14 +113,14 @@ impl Tree {
             pts: [Proj { w: 0.0, zz: 0.0 }; INLINE],
         };
         let mut node = vec![empty; big_n.max(1)];
-        for k in 0..n {
-            let mut x = big_n + k;
-            while x > 1 {
-                if x & 1 == 0 {
-                    node[x >> 1].open += 1;
-                }
-                x >>= 1;
-            }
+        // open[m] = real leaves (k < n) under the left child 2m, whose
+        // leaves are k in [m·2^t − N, m·2^t − N + 2^(t−1)), t the height of m.
+        let log_n = big_n.trailing_zeros();
+        for (m, nd) in node.iter_mut().enumerate().skip(1) {
+            let t = log_n - m.ilog2();
+            let start = (m << t) - big_n;
+            let span = 1usize << (t - 1);
+            nd.open = n.saturating_sub(start).min(span) as u32;
         }
         Tree {
             node,
@@ -174,8 +174,23 @@ impl Tree {
             insert(&mut self.spill[nd.spill as usize], q);
             return;
         }
+        let len = nd.len as usize;
+        // Fast path: most points fall under the hull and change nothing.
+        if len >= 2 {
+            let pos = nd.pts[..len].partition_point(|v| v.w < q.w);
+            if pos < len {
+                let r = nd.pts[pos];
+                if r.w == q.w {
+                    if r.zz >= q.zz {
+                        return; // as `insert`: a higher point at the same w
+                    }
+                } else if pos > 0 && o3(nd.pts[pos - 1], r, q) <= 0 {
+                    return; // as `insert`: on or below the hull
+                }
+            }
+        }
         self.scratch.clear();
-        self.scratch.extend_from_slice(&nd.pts[..nd.len as usize]);
+        self.scratch.extend_from_slice(&nd.pts[..len]);
         insert(&mut self.scratch, q);
         if self.scratch.len() <= INLINE {
             nd.pts[..self.scratch.len()].copy_from_slice(&self.scratch);
