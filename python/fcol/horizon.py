@@ -170,6 +170,8 @@ class HorizonMap:
         self.spacing = spacing
         self.method = method
         self.elapsed = float(elapsed)
+        self._normals: npt.NDArray[np.float64] | None = None
+        self._svf: npt.NDArray[np.float64] | None = None
 
     def __repr__(self) -> str:
         k, h, w = self.elevation.shape
@@ -189,13 +191,18 @@ class HorizonMap:
 
     def normals(self) -> npt.NDArray[np.float64]:
         """Unit upper normals (H, W, 3) in world axes (u, v, w) from central
-        differences of ``z`` (one-sided at the border, NaN next to no data)."""
+        differences of ``z`` (one-sided at the border, NaN next to no data);
+        computed once and returned read-only."""
+        if self._normals is not None:
+            return self._normals
         du, dv = self.spacing
         h, w = self.z.shape
         fu = np.gradient(self.z, du, axis=1) if w > 1 else np.zeros_like(self.z)
         fv = np.gradient(self.z, dv, axis=0) if h > 1 else np.zeros_like(self.z)
         n = np.stack([-fu, -fv, np.ones_like(self.z)], axis=-1)
-        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+        self._normals = n / np.linalg.norm(n, axis=-1, keepdims=True)
+        self._normals.flags.writeable = False
+        return self._normals
 
     def _effective(self, normals: npt.NDArray[np.float64] | None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """Per sector the lower limit of the visible sky: the horizon or the
@@ -215,6 +222,8 @@ class HorizonMap:
 
         Each sector contributes in closed form over the elevations above
         max(e_i, tangent plane)."""
+        if normals is None and self._svf is not None:
+            return self._svf.copy()
         e, n = self._effective(normals)
         s = self.sectors
         phi0 = 2 * np.pi * np.arange(s) / s
@@ -225,7 +234,10 @@ class HorizonMap:
         hz = 0.5 * np.cos(e) ** 2 * dphi
         hh = (np.pi / 4 - e / 2 - np.sin(2 * e) / 4)
         tot = n[..., 2] * hz.sum(0) + n[..., 0] * (cx * hh).sum(0) + n[..., 1] * (cy * hh).sum(0)
-        return np.asarray(tot / np.pi)
+        svf = np.asarray(tot / np.pi)
+        if normals is None:
+            self._svf = svf.copy()
+        return svf
 
     def sky_table(self, sky: Sky | npt.ArrayLike) -> npt.NDArray[np.float64]:
         """The sky as an (s, 256) table of radiances over equal-area regions:
@@ -553,7 +565,7 @@ def shade_terrain(
     n = horizon.normals()
     sun = horizon.sun(sun_azimuth, sun_elevation, sun_radius, normals=n)
     if sky is None:
-        amb = horizon.sky_view_factor(normals=n)
+        amb = horizon.sky_view_factor()
     else:
         amb = horizon.illumination(sky, normals=n) / np.pi
     inten = sun_weight * sun + sky_weight * amb
