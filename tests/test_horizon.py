@@ -462,3 +462,16 @@ def test_shade_terrain_from_above() -> None:
     again = fcol.shade_terrain(horizon=hmap, sun_azimuth=math.pi / 2, sun_elevation=0.3, outputs="intensity")
     np.testing.assert_array_equal(again.intensity, img.intensity)
     assert img.mask.all()
+
+
+@pytest.mark.parametrize("scale", [1e-6, 0.1, 1e6])
+def test_scale_invariance_and_diagonal_borders(scale: float) -> None:
+    # Samples on grid diagonals lie exactly on the 45° sector borders for any
+    # spacing (j·0.1 − i·0.1 is not exact in floating point, the membership
+    # keys are), so which sectors are empty does not depend on the scale.
+    z = np.random.default_rng(0).random((20, 20))
+    ref = fcol.horizon_map(z, 1.0, sectors=64).elevation
+    got = fcol.horizon_map(z * scale, scale, sectors=64).elevation
+    np.testing.assert_array_equal(got == np.float32(-np.pi / 2), ref == np.float32(-np.pi / 2))
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-6)
+    assert_bit_equal(got, fcol.horizon_map(z * scale, scale, sectors=64, method="brute").elevation)

@@ -40,8 +40,8 @@ pub fn all(
         for &i in &list {
             let f = &frames[i];
             pre.push(Pre {
-                a: f.key_a(t.x[q], t.y[q]),
-                b: f.key_b(t.x[q], t.y[q]),
+                a: f.key_a(t.kx[q], t.ky[q]),
+                b: f.key_b(t.kx[q], t.ky[q]),
                 p: project(f, t.x[q], t.y[q], t.z[q], o.curvature),
             });
         }

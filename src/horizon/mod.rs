@@ -25,7 +25,11 @@
 //! B_q ≥ B_p with A = a⊥·(x, y), B = b⊥·(x, y) (and q ≠ p). The keys are
 //! computed once per point; border directions that are multiples of 45° use
 //! the exact vectors (1, 0), (1, 1), … so that grid points lying exactly on a
-//! border are classified exactly. `brute` and `stewart` share these keys and
+//! border are classified exactly; on a grid the keys are computed from the
+//! sample indices scaled by 1/|du| (the same positive scale for every point,
+//! so membership is unchanged), which puts diagonal samples exactly on the
+//! 45° borders when |du| = |dv| whatever the rounding of j·du and i·dv.
+//! `brute` and `stewart` share these keys and
 //! the exact orientation predicate of [`exact`], which is why they agree bit
 //! for bit: the winner of each sector is chosen by exact comparison of the
 //! elevations (ties: the nearer point along r_i) and its angle is evaluated
@@ -93,6 +97,13 @@ pub struct Terrain {
     pub x: Vec<f64>,
     pub y: Vec<f64>,
     pub z: Vec<f64>,
+    /// Coordinates for the sector-membership keys: (x, y) itself for
+    /// scattered points; for a grid, (j·du, i·dv)/|du| computed from the
+    /// indices, so that with |du| = |dv| samples on a diagonal are exactly
+    /// on the 45° borders whatever the spacing's rounding (a common
+    /// positive scale does not change membership).
+    pub kx: Vec<f64>,
+    pub ky: Vec<f64>,
     /// (rows, cols, du, dv) when the points are the grid z[i, j] at (j·du, i·dv),
     /// stored row-major.
     pub grid: Option<(usize, usize, f64, f64)>,
@@ -113,16 +124,23 @@ impl Terrain {
         }
         let mut x = Vec::with_capacity(z.len());
         let mut y = Vec::with_capacity(z.len());
+        let mut kx = Vec::with_capacity(z.len());
+        let mut ky = Vec::with_capacity(z.len());
+        let (su, sv) = (du / du.abs(), dv / du.abs());
         for i in 0..rows {
             for j in 0..cols {
                 x.push(j as f64 * du);
                 y.push(i as f64 * dv);
+                kx.push(j as f64 * su);
+                ky.push(i as f64 * sv);
             }
         }
         Ok(Terrain {
             x,
             y,
             z,
+            kx,
+            ky,
             grid: Some((rows, cols, du, dv)),
         })
     }
@@ -135,6 +153,8 @@ impl Terrain {
             return Err(FcolError::value("x, y", "must be finite"));
         }
         Ok(Terrain {
+            kx: x.clone(),
+            ky: y.clone(),
             x,
             y,
             z,

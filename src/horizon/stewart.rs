@@ -231,8 +231,8 @@ pub fn sector(
     if n == 0 {
         return Ok(());
     }
-    let a: Vec<f64> = ids.iter().map(|&q| f.key_a(t.x[q], t.y[q])).collect();
-    let b: Vec<f64> = ids.iter().map(|&q| f.key_b(t.x[q], t.y[q])).collect();
+    let a: Vec<f64> = ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])).collect();
+    let b: Vec<f64> = ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])).collect();
     let pr: Vec<Proj> = ids
         .iter()
         .map(|&q| project(f, t.x[q], t.y[q], t.z[q], o.curvature))
@@ -314,8 +314,8 @@ pub fn hull_stats(t: &Terrain, f: &Frame, o: &Options) -> (f64, usize) {
     if n < 2 {
         return (0.0, 0);
     }
-    let a: Vec<f64> = ids.iter().map(|&q| f.key_a(t.x[q], t.y[q])).collect();
-    let b: Vec<f64> = ids.iter().map(|&q| f.key_b(t.x[q], t.y[q])).collect();
+    let a: Vec<f64> = ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])).collect();
+    let b: Vec<f64> = ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])).collect();
     let pr: Vec<Proj> = ids
         .iter()
         .map(|&q| project(f, t.x[q], t.y[q], t.z[q], o.curvature))
