@@ -12,6 +12,7 @@ pub mod camera;
 pub mod cancel;
 pub mod error;
 pub mod expr;
+pub mod horizon;
 pub mod image;
 pub mod raster;
 pub mod shade;

@@ -9,8 +9,9 @@ between. Every render reports its time and sample count; the benchmarks
 
 from __future__ import annotations
 
-from . import raster
+from . import horizon, raster
 from ._fcol import ExpressionError, Function, HeightGrid, Parametric, View, __version__, build_profile
+from .horizon import HorizonMap, horizon_map, horizon_points, shade_terrain
 from .image import Image
 from .render import render
 
@@ -18,11 +19,16 @@ __all__ = [
     "ExpressionError",
     "Function",
     "HeightGrid",
+    "HorizonMap",
     "Image",
     "Parametric",
     "View",
     "__version__",
     "build_profile",
+    "horizon",
+    "horizon_map",
+    "horizon_points",
     "raster",
     "render",
+    "shade_terrain",
 ]

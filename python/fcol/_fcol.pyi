@@ -175,3 +175,30 @@ def raster_triangles(
     cull_backfaces: bool = False,
     perspective_correct: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int32]]: ...
+
+# -- horizon maps (fcol.horizon) -------------------------------------------
+def horizon_grid(
+    z: npt.NDArray[np.float64],
+    du: float,
+    dv: float,
+    sectors: int,
+    method: str,
+    subset: list[int] | None = None,
+    max_distance: float | None = None,
+    curvature: float = 0.0,
+    near_vertex: bool = False,
+    progress: object | None = None,
+) -> tuple[npt.NDArray[np.float32], float]: ...
+def horizon_points(
+    x: npt.NDArray[np.float64],
+    y: npt.NDArray[np.float64],
+    z: npt.NDArray[np.float64],
+    sectors: int,
+    method: str,
+    subset: list[int] | None = None,
+    max_distance: float | None = None,
+    progress: object | None = None,
+) -> tuple[npt.NDArray[np.float32], float]: ...
+def horizon_hull_stats(
+    z: npt.NDArray[np.float64], du: float, dv: float, sectors: int, sector: int
+) -> tuple[float, int]: ...

@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 
 mod convert;
 mod errors;
+mod horizon;
 mod raster;
 mod run;
 pub mod surfaces;
@@ -26,5 +27,6 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     view::register(m)?;
     raster::register(m)?;
     surfaces::register(m)?;
+    horizon::register(m)?;
     Ok(())
 }

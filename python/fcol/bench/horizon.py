@@ -1,0 +1,217 @@
+"""Horizon maps: Stewart's Table I and Fig. 7 on this machine (time against
+the number of points n at s = 64 for stewart, cms, sweep and brute, with the
+fitted growth exponents), the fastest line-sampling tool that installs
+(topocalc's ``horizon``, at the same number of directions) in the same run,
+the speed-up on all cores, peak memory, hull sizes, the spike test's share
+of points that see the spike, and the sky-view factor of matplotlib's
+``jacksboro_fault_dem.npz`` against topocalc's ``viewf``."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import fcol
+
+S = 64
+
+
+def _terrain(side: int, seed: int = 0) -> np.ndarray:
+    """A fractal-ish terrain: smoothed noise at several scales (metres)."""
+    rng = np.random.default_rng(seed)
+    z = np.zeros((side, side))
+    k = 1
+    while k < side:
+        coarse = rng.normal(size=(side // k + 2, side // k + 2)) * k
+        z += np.kron(coarse, np.ones((k, k)))[:side, :side]
+        k *= 2
+    return z
+
+
+def _time(fn: Any, budget: float) -> float:
+    """Wall time of one call (several calls for fast ones, median)."""
+    t0 = time.perf_counter()
+    fn()
+    t = time.perf_counter() - t0
+    if t * 3 < budget:
+        reps = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            fn()
+            reps.append(time.perf_counter() - t0)
+        t = float(np.median(reps + [t]))
+    return t
+
+
+def _topocalc() -> Any:
+    try:
+        import topocalc.horizon as th  # type: ignore[import-not-found]
+
+        return th
+    except Exception:
+        return None
+
+
+def _topocalc_all(th: Any, z: np.ndarray, spacing: float, n: int) -> list[np.ndarray]:
+    return [th.horizon(a, z, spacing) for a in np.linspace(-180, 180, num=n, endpoint=False)]
+
+
+def _child(code: str, threads: int | None = None) -> dict[str, Any]:
+    env = dict(os.environ)
+    if threads is not None:
+        env["RAYON_NUM_THREADS"] = str(threads)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])  # type: ignore[no-any-return]
+
+
+CHILD = """
+import json, resource, time, numpy as np, fcol
+from fcol.bench.horizon import _terrain
+z = _terrain({side})
+t0 = time.perf_counter(); fcol.horizon_map(z, 1.0, sectors={s}, method={method!r}); t = time.perf_counter() - t0
+cpu = resource.getrusage(resource.RUSAGE_SELF)
+# VmHWM (peak resident set of this process image; ru_maxrss survives exec)
+hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")]
+peak = int(hwm[0].split()[1]) / 1024 if hwm else float("nan")
+print(json.dumps(dict(seconds=t, cpu=cpu.ru_utime + cpu.ru_stime, maxrss_mb=peak)))
+"""
+
+
+def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
+    out_dir = Path(out_dir)
+    rows: list[dict[str, Any]] = []
+    sides = [32, 56, 100, 178, 316, 562, 1000] if not quick else [32, 56, 100, 178]
+    limits = {"brute": 100 if not quick else 56, "cms": 316 if not quick else 100, "stewart": 1000, "sweep": 1000}
+    times: dict[str, list[tuple[int, float]]] = {m: [] for m in limits}
+    for side in sides:
+        z = _terrain(side)
+        n = side * side
+        for m in ("sweep", "stewart", "cms", "brute"):
+            if side > limits[m]:
+                continue
+            t = _time(lambda: fcol.horizon_map(z, 1.0, sectors=S, method=m), budget=2.0)
+            times[m].append((n, t))
+            rows.append({"table": "I", "n": n, "method": m, "seconds": t, "ns_per_point_dir": t * 1e9 / (n * S)})
+    fits = {}
+    for m, pts in times.items():
+        big = [(n, t) for n, t in pts if n >= 3000] or pts
+        if len(big) >= 2:
+            k, _ = np.polyfit(np.log([p[0] for p in big]), np.log([p[1] for p in big]), 1)
+            fits[m] = float(k)
+            rows.append({"table": "Fig7", "method": m, "growth_exponent": float(k), "seed": {"stewart": 1.1, "cms": 1.6, "brute": 2.0}.get(m, "")})
+    # crossover stewart vs cms
+    st, cm = dict(times["stewart"]), dict(times["cms"])
+    common = sorted(set(st) & set(cm))
+    cross = next((n for n in common if st[n] < cm[n]), None)
+    rows.append({"table": "Fig7", "method": "stewart<cms from n", "growth_exponent": cross if cross is not None else "beyond range"})
+
+    # line-sampling tool, same run, same terrain, same directions
+    th = _topocalc()
+    cmp_sides = [512, 1024] if not quick else [256]
+    for side in cmp_sides:
+        z = _terrain(side)
+        n = side * side
+        rec: dict[str, Any] = {"table": "vs-topocalc", "n": n, "directions": S}
+        t_st = _time(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="stewart"), 5.0)
+        t_sw = _time(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="sweep"), 5.0)
+        rec.update(stewart_s=t_st, sweep_s=t_sw)
+        if th is not None:
+            t_tc = _time(lambda: _topocalc_all(th, z, 1.0, S), 5.0)
+            rec.update(topocalc_s=t_tc, topocalc_ns_per_point_dir=t_tc * 1e9 / (n * S), stewart_speedup=t_tc / t_st, sweep_speedup=t_tc / t_sw)
+        else:
+            rec["topocalc_s"] = "not installed"
+        rows.append(rec)
+
+    # cores, CPU per point and direction, peak memory (child processes)
+    side = 512 if not quick else 256
+    for m in ("sweep", "stewart"):
+        one = _child(CHILD.format(side=side, s=S, method=m), threads=1)
+        alln = _child(CHILD.format(side=side, s=S, method=m))
+        rows.append({
+            "table": "cores", "method": m, "n": side * side,
+            "seconds_1_thread": one["seconds"], "seconds_all": alln["seconds"],
+            "speedup": one["seconds"] / alln["seconds"],
+            "cpu_ns_per_point_dir_1_thread": one["cpu"] * 1e9 / (side * side * S),
+            "peak_rss_mb": alln["maxrss_mb"],
+        })
+    mean_h, max_h = fcol._fcol.horizon_hull_stats(_terrain(side), 1.0, 1.0, S, 5)
+    rows.append({"table": "hulls", "n": side * side, "mean_points_per_hull": mean_h, "max_points": max_h})
+
+    # spike test (Fig. 8): share of points whose sector holding the spike sees it
+    nn = 100
+    z = np.zeros((nn, nn))
+    si, sj = nn - 6, 5
+    z[si, sj] = 50.0
+    ii, jj = np.mgrid[0:nn, 0:nn]
+    az = np.mod(np.arctan2(si - ii, sj - jj), 2 * np.pi)
+    sec = np.floor(az * S / (2 * np.pi)).astype(int) % S
+    away = (ii != si) | (jj != sj)
+    for m in ("stewart", "brute", "cms", "sweep"):
+        e = fcol.horizon_map(z, 1.0, sectors=S, method=m).elevation
+        seen = np.take_along_axis(e, sec[None], 0)[0][away] > 0
+        rows.append({"table": "spike", "method": m, "share_seeing_spike": float(seen.mean())})
+
+    # sky-view factor on the real DEM against topocalc.viewf
+    try:
+        from matplotlib.cbook import get_sample_data
+
+        dem: Any = get_sample_data("jacksboro_fault_dem.npz")
+        zdem = dem["elevation"].astype(np.float64)
+        ext = (float(dem["xmin"]), float(dem["xmax"]), float(dem["ymin"]), float(dem["ymax"]))
+        hm = fcol.horizon_map(zdem, extent=ext, geographic=True, earth_curvature=False, sectors=72, method="stewart")
+        svf = hm.sky_view_factor()
+        rec = {"table": "svf-jacksboro", "fcol_stewart_mean": float(np.nanmean(svf)), "horizon_s": hm.elapsed}
+        hs = fcol.horizon_map(zdem, extent=ext, geographic=True, earth_curvature=False, sectors=72, method="sweep")
+        rec["fcol_sweep_mean"] = float(np.nanmean(hs.sky_view_factor()))
+        if th is not None:
+            import topocalc.viewf as tv  # type: ignore[import-not-found]
+
+            spacing = float(np.sqrt(abs(hm.spacing[0] * hm.spacing[1])))
+            t0 = time.perf_counter()
+            tsvf, _ = tv.viewf(zdem, spacing, nangles=72)
+            rec["topocalc_s"] = time.perf_counter() - t0
+            rec["topocalc_mean"] = float(np.mean(tsvf))
+            rec["mean_abs_diff_stewart"] = float(np.nanmean(np.abs(svf - tsvf)))
+            rec["mean_abs_diff_sweep"] = float(np.nanmean(np.abs(hs.sky_view_factor() - tsvf)))
+            rec["corr_stewart"] = float(np.corrcoef(svf.ravel(), tsvf.ravel())[0, 1])
+        rows.append(rec)
+    except Exception as exc:  # pragma: no cover - optional data
+        rows.append({"table": "svf-jacksboro", "error": repr(exc)})
+
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        for m, pts in times.items():
+            if pts:
+                ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=f"{m} (k={fits.get(m, float('nan')):.2f})")
+        ax.set_xlabel("points n")
+        ax.set_ylabel("seconds (s = 64, wall, all cores)")
+        ax.set_title("Horizon maps: time against terrain size (Stewart Fig. 7)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(out_dir / "horizon_fig7.png", dpi=110)
+        plt.close(fig)
+    except Exception:  # pragma: no cover
+        pass
+    with open(out_dir / "horizon_table.json", "w") as f:
+        json.dump(rows, f, indent=1, default=str)
+    return rows
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for r in run(Path(sys.argv[1] if len(sys.argv) > 1 else "bench-out"), "--quick" in sys.argv):
+        print(r)
+    _ = math

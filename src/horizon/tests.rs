@@ -1,0 +1,177 @@
+use super::*;
+
+fn rng(seed: u64) -> impl FnMut() -> u64 {
+    let mut s = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    }
+}
+
+fn run(t: &Terrain, o: &Options) -> Vec<f32> {
+    compute(t, o, &Cancel::new(), &Progress::default()).unwrap()
+}
+
+fn same_bits(a: &[f32], b: &[f32]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+#[test]
+fn stewart_equals_brute_random_points() {
+    let mut r = rng(7);
+    for trial in 0..4 {
+        // Integer lattice coordinates: many exact border alignments.
+        let n = 150;
+        let mut seen = std::collections::HashSet::new();
+        let (mut x, mut y, mut z) = (vec![], vec![], vec![]);
+        while x.len() < n {
+            let (a, b) = ((r() % 40) as i64, (r() % 40) as i64);
+            if seen.insert((a, b)) {
+                x.push(a as f64);
+                y.push(b as f64);
+                z.push(if trial == 3 { 0.0 } else { (r() % 7) as f64 });
+            }
+        }
+        let t = Terrain::from_points(x, y, z).unwrap();
+        for s in [3usize, 8, 64, 256] {
+            let a = run(&t, &Options::new(s, Method::Brute));
+            let b = run(&t, &Options::new(s, Method::Stewart));
+            assert!(same_bits(&a, &b), "trial {trial} s {s}");
+        }
+    }
+}
+
+#[test]
+fn stewart_equals_brute_grid_nan_curvature() {
+    let mut r = rng(3);
+    let (h, w) = (13, 17);
+    let mut z: Vec<f64> = (0..h * w).map(|_| (r() % 1000) as f64 / 100.0).collect();
+    z[40] = f64::NAN;
+    z[41] = f64::NAN;
+    let t = Terrain::from_grid(z, h, w, 1.0, 1.0).unwrap();
+    for s in [8usize, 64] {
+        for c in [0.0, 1e-3] {
+            let mut o = Options::new(s, Method::Brute);
+            o.curvature = c;
+            let a = run(&t, &o);
+            o.method = Method::Stewart;
+            let b = run(&t, &o);
+            assert!(same_bits(&a, &b), "s {s} c {c}");
+            assert!(a[40].is_nan() && a[41].is_nan());
+        }
+    }
+}
+
+#[test]
+fn flat_is_zero_and_borders_empty() {
+    let t = Terrain::from_grid(vec![2.0; 9 * 11], 9, 11, 0.5, 2.0).unwrap();
+    for m in [Method::Brute, Method::Stewart, Method::Cms, Method::Sweep] {
+        let e = run(&t, &Options::new(8, m));
+        // sector 0 (azimuth 0..45°) from the rightmost column holds no point
+        for i in 0..9 {
+            assert_eq!(e[i * 11 + 10], EMPTY, "{m:?}");
+            // the centre line leaves the grid at once from the top row
+            if i < 8 || m != Method::Cms {
+                assert_eq!(e[i * 11], 0.0, "{m:?} row {i}");
+            }
+        }
+    }
+}
+
+#[test]
+fn spike_shadows_whole_sector() {
+    let n = 30;
+    let mut z = vec![0.0; n * n];
+    z[(n - 3) * n + 2] = 50.0;
+    let t = Terrain::from_grid(z, n, n, 1.0, 1.0).unwrap();
+    let s = 64;
+    let a = run(&t, &Options::new(s, Method::Stewart));
+    let b = run(&t, &Options::new(s, Method::Brute));
+    assert!(same_bits(&a, &b));
+    // every point whose sector holds the spike sees it above the horizon
+    for i in 0..n {
+        for j in 0..n {
+            let (dx, dy) = (2.0 - j as f64, (n - 3) as f64 - i as f64);
+            if dx == 0.0 && dy == 0.0 {
+                continue;
+            }
+            let az = dy.atan2(dx).rem_euclid(2.0 * std::f64::consts::PI);
+            let sec = ((az / (2.0 * std::f64::consts::PI) * s as f64) as usize).min(s - 1);
+            let f = (az / (2.0 * std::f64::consts::PI) * s as f64).fract();
+            if f > 1e-9 && f < 1.0 - 1e-9 {
+                assert!(a[sec * n * n + i * n + j] > 0.0);
+            }
+        }
+    }
+}
+
+#[test]
+fn sweep_matches_line_brute() {
+    let mut r = rng(11);
+    let (h, w) = (20, 23);
+    let z: Vec<f64> = (0..h * w).map(|_| (r() % 500) as f64 / 50.0).collect();
+    let t = Terrain::from_grid(z.clone(), h, w, 1.0, 1.5).unwrap();
+    let s = 16;
+    let a = run(&t, &Options::new(s, Method::Sweep));
+    let mut o = Options::new(s, Method::Sweep);
+    o.max_distance = Some(1e9); // the direct scan path
+    let b = run(&t, &o);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-6, "{x} {y}");
+    }
+}
+
+#[test]
+fn fast_atan_accuracy() {
+    let mut x = -50.0;
+    while x < 50.0 {
+        assert!((sweep::fast_atan(x) - x.atan()).abs() < 2e-7, "{x}");
+        x += 0.0137;
+    }
+}
+
+#[test]
+fn hull_insert_is_upper_hull() {
+    let mut r = rng(5);
+    for _ in 0..50 {
+        let mut h = Vec::new();
+        let pts: Vec<Proj> = (0..40)
+            .map(|_| Proj {
+                w: (r() % 30) as f64,
+                zz: (r() % 30) as f64,
+            })
+            .collect();
+        for &p in &pts {
+            stewart::insert(&mut h, p);
+        }
+        for k in 0..h.len() {
+            if k + 1 < h.len() {
+                assert!(h[k].w < h[k + 1].w);
+            }
+            if k + 2 < h.len() {
+                assert!(
+                    exact::orient(
+                        (h[k].w, h[k].zz),
+                        (h[k + 1].w, h[k + 1].zz),
+                        (h[k + 2].w, h[k + 2].zz)
+                    ) < 0
+                );
+            }
+        }
+        // every point lies on or below the hull
+        for p in &pts {
+            let k = h.partition_point(|v| v.w < p.w);
+            if k < h.len() && h[k].w == p.w {
+                assert!(p.zz <= h[k].zz);
+            } else {
+                assert!(k > 0 && k < h.len());
+                let (a, b) = (h[k - 1], h[k]);
+                assert!(exact::orient((a.w, a.zz), (b.w, b.zz), (p.w, p.zz)) <= 0);
+            }
+        }
+    }
+}
