@@ -11,6 +11,7 @@
 pub mod camera;
 pub mod cancel;
 pub mod error;
+pub mod floating;
 pub mod image;
 pub mod raster;
 pub mod shade;
