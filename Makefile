@@ -41,7 +41,7 @@ pytest: $(STAMP)
 stubtest: $(STAMP)
 	$(PY) -m mypy.stubtest fcol._fcol --allowlist tests/stubtest-allowlist.txt
 
-test: build cargo-test pytest
+test: build cargo-test pytest stubtest
 
 demo: build
 	$(PY) -m fcol.demo --out gallery

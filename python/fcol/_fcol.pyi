@@ -1,7 +1,7 @@
 """Type stubs of the native module fcol._fcol (hand-written; checked by
 ``make stubtest``)."""
 
-from typing import Literal
+from typing import Literal, final
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,7 @@ class ExpressionError(ValueError): ...
 
 _Vec3 = tuple[float, float, float]
 
+@final
 class View:
     def __new__(
         cls,
@@ -49,4 +50,4 @@ class View:
     def rays(
         self, width: int, height: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, value: object, /) -> bool: ...
