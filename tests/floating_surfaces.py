@@ -47,26 +47,13 @@ EXPRESSIONS = {
 }
 
 
-class _Callable:
-    """A surface object called as s(u, v) -> (w, f_u, f_v)."""
-
-    def __init__(self, f, grad, domain):
-        self.f, self.grad, self.domain = f, grad, domain
-
-    def __call__(self, u, v):
-        gu, gv = self.grad(u, v)
-        return self.f(u, v), gu, gv
-
-
 def surface(name: str):
     """The fcol surface of a test surface: an expression when this build has
     `fcol.Function`, else a callable object."""
     if name == "dem":
         return _surface_dem()
     f, grad, domain = SURFACES[name]
-    if hasattr(fcol, "Function"):
-        return fcol.Function(EXPRESSIONS[name], domain=domain)
-    return _Callable(f, grad, domain)
+    return fcol.Function(EXPRESSIONS[name], domain=domain)
 
 
 def dem_grid(n: int = 33, seed: int = 7) -> np.ndarray:
@@ -125,4 +112,4 @@ def _surface_dem():
     if hasattr(fcol, "HeightGrid"):
         return fcol.HeightGrid(_DEM.z, extent=DEM_EXTENT, interpolation="bilinear")
     f, grad, domain = SURFACES["dem"]
-    return _Callable(f, grad, domain)
+    return fcol.Function(f, grad=grad, domain=domain)

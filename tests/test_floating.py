@@ -24,7 +24,7 @@ CASES = [
     ("bump", dict(elevation=35, azimuth=20, projection="perspective", distance=10.0, fov=40.0)),
     ("ripples", dict(elevation=45, azimuth=25, view_height=5.0)),
     ("ripples", dict(elevation=55, azimuth=60, projection="perspective", distance=7.0, fov=40.0)),
-    ("dem", dict(elevation=35, azimuth=200, view_height=11.0)),
+    ("dem", dict(elevation=35, azimuth=200, view_height=8.5)),
     ("dem", dict(elevation=40, azimuth=30, projection="perspective", distance=14.0, fov=40.0)),
 ]
 
@@ -48,11 +48,14 @@ def reference(name, kw, w=W, h=H):
 
 @pytest.mark.parametrize("name,kw", CASES, ids=[f"{n}-{i}" for i, (n, _) in enumerate(CASES)])
 def test_accuracy_against_exact_reference(name, kw):
+    # 3 sin(u cos v) is intricate: at 128 × 100 most of its pixels lie within
+    # a pixel of a silhouette, which dominates SSIM; it is tested at 256 × 200.
+    w, h = (256, 200) if name == "sinuv" else (W, H)
     view = make_view(kw)
-    img = fcol.render(surface(name), view, W, H, outputs=ALL, shading="normal")
-    ref = reference(name, kw)
+    img = fcol.render(surface(name), view, w, h, outputs=ALL, shading="normal")
+    ref = reference(name, kw, w, h)
     res = compare(img, ref, view)
-    assert res["n_compared"] > 0.2 * W * H, res
+    assert res["n_compared"] > 0.2 * w * h, res
     assert res["mask_bad"] == 0, res
     assert res["depth_px_median"] <= 0.02, res
     assert res["depth_px_p99"] <= 0.5, res
@@ -65,9 +68,9 @@ def test_accuracy_against_exact_reference(name, kw):
 def test_gouraud_and_phong_without_refinement_are_close():
     name, kw = CASES[0]
     view = make_view(kw)
-    ref = reference(name, kw)
+    ref = reference(name, kw, 256, 200)
     for shading in ("intensity", "normal"):
-        img = fcol.render(surface(name), view, W, H, outputs=("rgb", "mask"), shading=shading,
+        img = fcol.render(surface(name), view, 256, 200, outputs=("rgb", "mask"), shading=shading,
                           refine=False)
         res = compare(img, ref, view)
         assert res["mask_bad"] == 0, res

@@ -1,7 +1,7 @@
 """Type stubs of the native module fcol._fcol (hand-written; checked by
 ``make stubtest``)."""
 
-from typing import Literal, final
+from typing import Any, Callable, Literal, Mapping, final
 
 import numpy as np
 import numpy.typing as npt
@@ -51,3 +51,57 @@ class View:
         self, width: int, height: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
     def __eq__(self, value: object, /) -> bool: ...
+
+# --- surfaces: expressions, height grids, callables -------------------------
+
+_Domain = tuple[tuple[float, float], tuple[float, float]]
+_Arr = npt.NDArray[np.float64]
+
+class Function:
+    def __new__(
+        cls,
+        f: str | Callable[..., npt.ArrayLike],
+        grad: Callable[..., tuple[npt.ArrayLike, npt.ArrayLike]] | None = None,
+        domain: _Domain | None = None,
+        params: Mapping[str, float] | None = None,
+        *,
+        t: float | None = None,
+    ) -> Function: ...
+    def __call__(self, u: npt.ArrayLike, v: npt.ArrayLike) -> Any: ...
+    def gradient(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[Any, Any]: ...
+    def with_params(self, **kwargs: float) -> Function: ...
+    @property
+    def domain(self) -> _Domain: ...
+    @property
+    def expr(self) -> str | None: ...
+    @property
+    def params(self) -> dict[str, float]: ...
+    @property
+    def t(self) -> float | None: ...
+    @property
+    def calls(self) -> int: ...
+
+class Parametric:
+    def __new__(
+        cls,
+        x: str | Callable[..., npt.ArrayLike],
+        y: str | Callable[..., npt.ArrayLike],
+        z: str | Callable[..., npt.ArrayLike],
+        domain: _Domain | None = None,
+        params: Mapping[str, float] | None = None,
+        *,
+        jac: Callable[..., tuple[npt.ArrayLike, npt.ArrayLike]] | None = None,
+        t: float | None = None,
+    ) -> Parametric: ...
+    def __call__(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[Any, Any, Any]: ...
+    def jacobian(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[_Arr, _Arr]: ...
+    def hessian(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[_Arr, _Arr, _Arr]: ...
+    def with_params(self, **kwargs: float) -> Parametric: ...
+    @property
+    def domain(self) -> _Domain: ...
+    @property
+    def exprs(self) -> tuple[str, str, str] | None: ...
+    @property
+    def params(self) -> dict[str, float]: ...
+    @property
+    def calls(self) -> int: ...

@@ -9,6 +9,7 @@
 pub mod artifacts;
 pub mod column;
 pub mod horizon;
+pub mod radial;
 pub mod sampling;
 
 use crate::camera::{Camera, View};
@@ -122,7 +123,10 @@ pub(crate) fn with_threads<T: Send>(
     }
 }
 
+type ColumnResult = Result<(Vec<Pixel>, Vec<[f64; 4]>, ColumnStats)>;
+
 /// Render w = f(u, v) by the floating column (§4.2, A.2).
+#[allow(clippy::too_many_arguments)]
 pub fn render_floating_column(
     field: &dyn HeightField,
     view: &View,
@@ -162,15 +166,19 @@ pub fn render_floating_column(
     let shade_aa = aa > 1 && outputs.needs_shading();
     let geom = outputs.depth || outputs.normal || outputs.uv || outputs.side || outputs.mask;
     let mut total = ColumnStats::default();
-    // Columns in chunks so that only a few columns' results are in memory.
-    let chunk = 128usize;
-    let mut j0 = 0;
-    while j0 < width {
-        cancel.check()?;
-        let j1 = (j0 + chunk).min(width);
-        let cols: Vec<Result<(Vec<Pixel>, Vec<[f64; 4]>, ColumnStats)>> =
-            with_threads(opts.threads, || {
-                (j0..j1)
+    if cam.perspective {
+        let (px, st) = with_threads(opts.threads, || radial::render_radial(&ctx, cancel))??;
+        total = st;
+        write_rows(&mut buf, &px, shading);
+    } else {
+        with_threads(opts.threads, || -> Result<()> {
+            // Columns in chunks so that only a few columns' results are in memory.
+            let chunk = 256usize;
+            let mut j0 = 0;
+            while j0 < width {
+                cancel.check()?;
+                let j1 = (j0 + chunk).min(width);
+                let cols: Vec<ColumnResult> = (j0..j1)
                     .into_par_iter()
                     .map(|j| {
                         cancel.check()?;
@@ -207,15 +215,17 @@ pub fn render_floating_column(
                         }
                         Ok((centre, acc, st))
                     })
-                    .collect()
-            })?;
-        for (k, r) in cols.into_iter().enumerate() {
-            let (px, acc, st) = r?;
-            total.add(&st);
-            let j = j0 + k;
-            write_column(&mut buf, j, &px, &acc, shading, shade_aa);
-        }
-        j0 = j1;
+                    .collect();
+                for (k, r) in cols.into_iter().enumerate() {
+                    let (px, acc, st) = r?;
+                    total.add(&st);
+                    let j = j0 + k;
+                    write_column(&mut buf, j, &px, &acc, shading, shade_aa);
+                }
+                j0 = j1;
+            }
+            Ok(())
+        })??;
     }
     buf.samples = total.sweep_evals + total.refine_evals;
     buf.stat("sweep_samples", total.sweep_evals as f64);
@@ -225,7 +235,16 @@ pub fn render_floating_column(
     buf.stat("walls", total.walls as f64);
     buf.stat("problems", total.problems as f64);
     buf.stat("early_exits", total.early_exit as f64);
+    buf.stat("fold_fixes", total.fold_fixes as f64);
     Ok(buf)
+}
+
+fn write_rows(buf: &mut Buffers, px: &[Pixel], shading: &Shading) {
+    let w = buf.width;
+    for j in 0..w {
+        let col: Vec<Pixel> = px.iter().skip(j).step_by(w).copied().collect();
+        write_column(buf, j, &col, &[], shading, false);
+    }
 }
 
 fn write_column(

@@ -325,10 +325,24 @@ impl<'a> Sampler<'a> {
                 }
             }
         }
-        if fold {
+        let mut smp = self.finish(t, s, uv, h, fold);
+        if l.kappa != 0.0 && smp.z > fr.near {
+            // Off the column's plane (the solve did not converge): the same
+            // treatment as a fold.
+            let x = fr.focal * s / smp.z;
+            let xpix = if fr.d_t.abs() > 0.0 {
+                l.a * fr.focal / fr.d_t
+            } else {
+                x
+            };
+            if fr.d_t.abs() > 0.0 && (x - xpix).abs() > 0.25 {
+                smp.fold = true;
+            }
+        }
+        if smp.fold {
             self.folds += 1;
         }
-        Some(self.finish(t, s, uv, h, fold))
+        Some(smp)
     }
 
     /// Fill in the derived quantities of a sample at (s, t) with values h.

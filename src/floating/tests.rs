@@ -136,22 +136,29 @@ fn check_against_brute(
             let t = truth[k];
             // Pixels whose 4-neighbourhood disagrees on hit/miss or depth
             // (jumps) form the 1-pixel band excluded from the comparison.
-            let band = [(0i64, 1i64), (0, -1), (1, 0), (-1, 0)]
-                .iter()
-                .any(|(di, dj)| {
-                    let (ii, jj) = (i as i64 + di, j as i64 + dj);
-                    if ii < 0 || jj < 0 || ii >= h as i64 || jj >= w as i64 {
-                        return false;
-                    }
-                    let q = truth[ii as usize * w + jj as usize];
-                    match (t, q) {
-                        (Some(a), Some(b)) => {
-                            (a.0 - b.0).abs() > 5.0 * cam.pixel_size_at(a.0.abs())
-                        }
-                        (None, None) => false,
-                        _ => true,
-                    }
-                });
+            let band = [
+                (0i64, 1i64),
+                (0, -1),
+                (1, 0),
+                (-1, 0),
+                (1, 1),
+                (1, -1),
+                (-1, 1),
+                (-1, -1),
+            ]
+            .iter()
+            .any(|(di, dj)| {
+                let (ii, jj) = (i as i64 + di, j as i64 + dj);
+                if ii < 0 || jj < 0 || ii >= h as i64 || jj >= w as i64 {
+                    return false;
+                }
+                let q = truth[ii as usize * w + jj as usize];
+                match (t, q) {
+                    (Some(a), Some(b)) => (a.0 - b.0).abs() > 5.0 * cam.pixel_size_at(a.0.abs()),
+                    (None, None) => false,
+                    _ => true,
+                }
+            });
             if band {
                 continue;
             }

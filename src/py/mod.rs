@@ -9,6 +9,7 @@ mod errors;
 mod raster;
 mod render;
 mod run;
+pub mod surfaces;
 mod view;
 
 #[pymodule]
@@ -26,5 +27,6 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     view::register(m)?;
     raster::register(m)?;
     render::register(m)?;
+    surfaces::register(m)?;
     Ok(())
 }

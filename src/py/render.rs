@@ -6,97 +6,10 @@ use super::run;
 use super::view::PyView;
 use crate::error::FcolError;
 use crate::floating::{self, Corrections, FloatingOptions, ShadingMode};
-use crate::surface::{Domain, HeightField, HeightSample};
-use numpy::{PyArray1, PyArrayMethods};
+use crate::surface::HeightField;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::Arc;
 use std::time::Instant;
-
-/// A surface given as a Python object with a `domain` ((u0, u1), (v0, v1))
-/// that is called as `obj(u, v) -> (w, f_u, f_v)` on float64 arrays.
-struct PyCallableHeight {
-    obj: Py<PyAny>,
-    domain: Domain,
-}
-
-impl HeightField for PyCallableHeight {
-    fn domain(&self) -> Domain {
-        self.domain
-    }
-    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
-        let ok = Python::attach(|py| -> PyResult<()> {
-            let ua = PyArray1::from_slice(py, u);
-            let va = PyArray1::from_slice(py, v);
-            let r = self.obj.bind(py).call1((ua, va))?;
-            let (f, fu, fv): (Bound<'_, PyAny>, Bound<'_, PyAny>, Bound<'_, PyAny>) =
-                r.extract()?;
-            let conv = |a: Bound<'_, PyAny>| -> PyResult<Vec<f64>> {
-                let np = py.import("numpy")?;
-                let a = np.call_method1("asarray", (a, "float64"))?;
-                let a = np.call_method1("broadcast_to", (a, u.len()))?;
-                let a = a.cast_into::<PyArray1<f64>>()?;
-                Ok(a.to_vec()?)
-            };
-            let (f, fu, fv) = (conv(f)?, conv(fu)?, conv(fv)?);
-            if f.len() != u.len() {
-                return Err(
-                    FcolError::value("surface", "returned arrays of the wrong length").into(),
-                );
-            }
-            for k in 0..u.len() {
-                out[k] = HeightSample {
-                    f: f[k],
-                    fu: fu[k],
-                    fv: fv[k],
-                };
-            }
-            Ok(())
-        });
-        if ok.is_err() {
-            for o in out.iter_mut() {
-                *o = HeightSample {
-                    f: f64::NAN,
-                    fu: f64::NAN,
-                    fv: f64::NAN,
-                };
-            }
-        }
-    }
-    fn cheap_point_eval(&self) -> bool {
-        false
-    }
-}
-
-type Field = Arc<dyn HeightField + Send + Sync>;
-
-fn height_field(obj: &Bound<'_, PyAny>) -> PyResult<Field> {
-    let dom = obj.getattr("domain").ok();
-    if obj.is_callable() {
-        if let Some(d) = dom {
-            let ((u0, u1), (v0, v1)): ((f64, f64), (f64, f64)) = d
-                .extract()
-                .map_err(|_| FcolError::type_("surface", "domain must be ((u0, u1), (v0, v1))"))?;
-            let domain = Domain::new(u0, u1, v0, v1)?;
-            // Validate one call now, with the GIL held, for a clear error.
-            let np = obj.py().import("numpy")?;
-            let z = np.call_method1("zeros", (1,))?;
-            obj.call1((z.clone(), z)).map_err(|e| {
-                pyo3::exceptions::PyTypeError::new_err(format!(
-                    "surface: calling surface(u, v) failed: {e}"
-                ))
-            })?;
-            return Ok(Arc::new(PyCallableHeight {
-                obj: obj.clone().unbind(),
-                domain,
-            }));
-        }
-    }
-    Err(pyo3::exceptions::PyTypeError::new_err(format!(
-        "surface: expected a function surface (fcol.Function, fcol.HeightGrid, or an object with a `domain` called as surface(u, v) -> (w, f_u, f_v)), got {}",
-        obj.get_type().name()?
-    )))
-}
 
 fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
     let mut f = FloatingOptions::default();
@@ -200,13 +113,15 @@ fn render_height<'py>(
     let horizon = match method {
         "floating_column" => false,
         "floating_horizon" => true,
-        other => return Err(FcolError::value(
-            "method",
-            format!(
+        other => {
+            return Err(FcolError::value(
+                "method",
+                format!(
                 "function surfaces take \"floating_column\" or \"floating_horizon\", got {other:?}"
             ),
-        )
-        .into()),
+            )
+            .into())
+        }
     };
     let outputs = parse_outputs(outputs)?;
     let o = Options::new(options, py)?;
@@ -215,7 +130,7 @@ fn render_height<'py>(
     o.finish(&format!("fcol.render(method={method:?})"))?;
     fopts.validate()?;
     crate::error::check_size(width, height)?;
-    let field = height_field(surface)?;
+    let field = super::surfaces::height_field_from_py(surface)?;
     let t0 = Instant::now();
     let buf = run::cancellable(py, |cancel| {
         let f: &dyn HeightField = &*field;
@@ -230,6 +145,7 @@ fn render_height<'py>(
         }
     })?;
     let elapsed = t0.elapsed().as_secs_f64();
+    super::surfaces::check_surface_errors(surface)?;
     buffers_to_dict(py, buf, elapsed)
 }
 
