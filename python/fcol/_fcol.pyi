@@ -105,3 +105,15 @@ class Parametric:
     def params(self) -> dict[str, float]: ...
     @property
     def calls(self) -> int: ...
+
+# --- floating horizon and floating column (function surfaces) -------------
+
+def render_height(
+    surface: Function,
+    view: View,
+    width: int,
+    height: int,
+    method: Literal["floating_column", "floating_horizon"],
+    outputs: str | tuple[str, ...] | list[str],
+    options: dict[str, Any] | None = None,
+) -> dict[str, Any]: ...

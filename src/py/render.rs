@@ -88,10 +88,29 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
     Ok(f)
 }
 
-/// Render a function surface: `method` is "floating_column" or
-/// "floating_horizon"; `options` holds the keyword options of
-/// `fcol.render` (unknown ones are a TypeError). Returns the keyword
-/// arguments of `fcol.Image`.
+/// Render a function surface (called by `fcol.render`): `method` is
+/// "floating_column" (shaded, Gordon 2001 §4.2) or "floating_horizon" (line
+/// drawing, §4.1; buffers "lines" and "mask"). Returns the keyword arguments
+/// of `fcol.Image`. Options (unknown ones are a TypeError):
+///
+/// * `shading`: "normal" (Phong, default) or "intensity" (Gouraud);
+/// * `refine` (True): solve each visible pixel exactly on its ray;
+/// * `step` (1.0): largest screen gap between samples, pixels;
+///   `max_step` (2.0): largest step along a sweep, in pixel footprints;
+/// * `ridges`, `bumps`, `jumps` (False): §5 detections; `correction`
+///   ("supersample" or "spline"), `rate` (8), `threshold` (0.0625);
+///   `walls` (True): shade steps as walls (§5.1);
+/// * `antialias` (1): column supersampling of rgb/intensity (§6.4,
+///   orthographic views);
+/// * `planes` (80, floating_horizon): number of sampling planes;
+/// * `threads`: worker threads (default: all); output is identical for any;
+/// * the shading options of every renderer (`light`, `ambient`, ...).
+///
+/// >>> import fcol
+/// >>> s = fcol.Function("exp(-(u*u + v*v))", domain=((-2, 2), (-2, 2)))
+/// >>> img = fcol.render(s, fcol.View(40, 20, view_height=5.0), 64, 48, outputs=("rgb", "depth"))
+/// >>> img.depth.shape, bool(img.samples > 0)
+/// ((48, 64), True)
 #[pyfunction]
 #[pyo3(signature = (surface, view, width, height, method, outputs, options = None))]
 #[allow(clippy::too_many_arguments)]
