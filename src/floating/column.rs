@@ -95,6 +95,18 @@ impl Coverage {
         out.sort_by(|x, y| x.0.total_cmp(&y.0));
         self.iv = out;
     }
+    /// Distance of x inside its covered interval (0 when not covered).
+    fn depth(&self, x: f64) -> f64 {
+        self.iv
+            .iter()
+            .find(|&&(a, b)| x >= a && x <= b)
+            .map(|&(a, b)| (x - a).min(b - x))
+            .unwrap_or(0.0)
+    }
+    /// The covered interval holding x.
+    fn interval(&self, x: f64) -> Option<(f64, f64)> {
+        self.iv.iter().copied().find(|&(a, b)| x >= a && x <= b)
+    }
     fn covers(&self, lo: f64, hi: f64) -> bool {
         self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)
     }
@@ -109,6 +121,7 @@ struct Sweep<'c, 'a> {
     cov: Coverage,
     h: usize,
     stats: ColumnStats,
+    jobs: Vec<super::refine::Job>,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -133,6 +146,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         cov: Coverage::default(),
         h: ctx.cam.height,
         stats: ColumnStats::default(),
+        jobs: Vec::new(),
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
@@ -151,6 +165,11 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
             sw.cov = Coverage::default();
             sw.sweep(tmax.min(0.0), -1.0, tmax.min(0.0) - tmin, out);
         }
+    }
+    if !sw.jobs.is_empty() {
+        let (failed, evals) = super::refine::solve(ctx, &sw.jobs, out);
+        sw.stats.refine_evals += evals;
+        sw.stats.refine_fail += failed.len() as u64;
     }
     if sw.sampler.folds > 0 {
         // The column's plane is tangent to the surface somewhere across it
@@ -233,6 +252,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
             };
             let cap = opts.max_step * fp;
             let mut h = match &prev {
+                // Deep inside the covered rows nothing can show before the
+                // curve climbs out: take the largest step (checked below).
+                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => cap,
                 Some(a) => {
                     let r = a.drho_dt.abs();
                     if r > 0.0 && r.is_finite() {
@@ -262,12 +284,15 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
-                        if gap > step_px && halvings < 40 && hh > min_frac * fp {
-                            h = 0.5 * hh;
+                        let hidden = gap > step_px && self.hidden(&a, &b);
+                        if gap > step_px && !hidden && halvings < 40 && hh > min_frac * fp {
+                            // Retry at the step the gap suggests (rows vary
+                            // about linearly over a small step).
+                            h = hh * (0.9 * step_px / gap).clamp(0.05, 0.5);
                             halvings += 1;
                             continue;
                         }
-                        let wall = gap > step_px;
+                        let wall = gap > step_px && !hidden;
                         if wall {
                             self.stats.walls += 1;
                         }
@@ -328,6 +353,28 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 return;
             }
         }
+    }
+
+    /// Does the curve stay inside the covered rows between a and b? Both
+    /// ends in one covered interval, and so the extremum of the cubic
+    /// through their rows and slopes (§5.2), with a pixel of margin.
+    fn hidden(&self, a: &Sample, b: &Sample) -> bool {
+        let (ra, rb) = (self.clamp_row(a.rho), self.clamp_row(b.rho));
+        let Some((lo, hi)) = self.cov.interval(ra) else {
+            return false;
+        };
+        let (lo, hi) = (lo + 1.0, hi - 1.0);
+        if !(ra >= lo && ra <= hi && rb >= lo && rb <= hi) {
+            return false;
+        }
+        hermite_inside(
+            a.rho,
+            b.rho,
+            a.drho_dt * (b.t - a.t),
+            b.drho_dt * (b.t - a.t),
+            lo,
+            hi,
+        )
     }
 
     /// Bisection on validity between τ_a and τ_b (one valid, one not).
@@ -455,17 +502,22 @@ impl<'c, 'a> Sweep<'c, 'a> {
         };
         let (o, dir) = self.ctx.cam.ray(row, self.col);
         if self.ctx.refine && !wall {
-            match self.refine(o, dir, a, b, z) {
-                Some((depth, uv, hs)) => {
-                    px.depth = depth;
-                    px.uv = uv;
-                    px.n = hs.normal();
-                    let c = -dir.dot(px.n);
-                    if c != 0.0 {
-                        px.side = if c > 0.0 { 1 } else { -1 };
-                    }
-                }
-                None => self.stats.refine_fail += 1,
+            // Solved later, batched with the column's other pixels.
+            let fr = self.ctx.frame;
+            let dd = dir.dot(self.ctx.cam.d);
+            if dd > 0.0 {
+                let to_lam = |z: f64| if fr.persp { z / dd } else { z };
+                let fp = fr.footprint(z);
+                let span = (to_lam(a.z) - to_lam(b.z)).abs();
+                self.jobs.push(super::refine::Job {
+                    slot: i,
+                    o,
+                    dir,
+                    lam: to_lam(z),
+                    lo: to_lam(a.z).min(to_lam(b.z)) - 2.0 * fp - span,
+                    hi: to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span,
+                    fp,
+                });
             }
         }
         if wall && self.ctx.opts.corrections.walls {
@@ -589,59 +641,26 @@ impl<'c, 'a> Sweep<'c, 'a> {
             ga = gb;
         }
     }
+}
 
-    /// Newton on the pixel's ray, seeded at depth z; None when it leaves the
-    /// bracket of the span, the domain, or does not converge.
-    fn refine(
-        &mut self,
-        o: DVec3,
-        dir: DVec3,
-        a: &Sample,
-        b: &Sample,
-        z: f64,
-    ) -> Option<(f64, DVec2, crate::surface::HeightSample)> {
-        let fr = self.ctx.frame;
-        let dd = dir.dot(self.ctx.cam.d);
-        if dd <= 0.0 {
-            return None;
-        }
-        let to_lam = |z: f64| if fr.persp { z / dd } else { z };
-        let fp = fr.footprint(z);
-        let span = (to_lam(a.z) - to_lam(b.z)).abs();
-        let lo = to_lam(a.z).min(to_lam(b.z)) - 2.0 * fp - span;
-        let hi = to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span;
-        let mut lam = to_lam(z);
-        let tol = self.ctx.opts.refine_tol * fp;
-        let dom = fr.domain;
-        for _ in 0..self.ctx.opts.refine_iters {
-            let p = o + lam * dir;
-            if !dom.contains(p.x, p.y) {
-                return None;
-            }
-            self.stats.refine_evals += 1;
-            let hs = self.ctx.field.eval(p.x, p.y);
-            if !hs.is_finite() {
-                return None;
-            }
-            let g = p.z - hs.f;
-            let gp = dir.z - (hs.fu * dir.x + hs.fv * dir.y);
-            if gp == 0.0 || !gp.is_finite() {
-                return None;
-            }
-            let dl = g / gp;
-            lam -= dl;
-            if !(lam >= lo && lam <= hi) {
-                return None;
-            }
-            if dl.abs() <= tol {
-                let q = o + lam * dir;
-                if !dom.contains(q.x, q.y) {
-                    return None;
-                }
-                let depth = if fr.persp { lam * dd } else { lam };
-                return Some((depth, DVec2::new(q.x, q.y), hs));
-            }
-        }
-        None
+/// Does the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1 stay
+/// within [lo, hi]? (Its extrema in (0, 1) checked.)
+pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f64) -> bool {
+    if !(m0.is_finite() && m1.is_finite()) {
+        return false;
     }
+    let a = 2.0 * (p0 - p1) + m0 + m1;
+    let b = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
+    let c = m0;
+    let p = |x: f64| ((a * x + b) * x + c) * x + p0;
+    let ok = |x: f64| !(x > 0.0 && x < 1.0) || (p(x) >= lo && p(x) <= hi);
+    if a.abs() < 1e-300 {
+        return b == 0.0 || ok(-c / (2.0 * b));
+    }
+    let disc = b * b - 3.0 * a * c;
+    if disc < 0.0 {
+        return true;
+    }
+    let sq = disc.sqrt();
+    ok((-b + sq) / (3.0 * a)) && ok((-b - sq) / (3.0 * a))
 }

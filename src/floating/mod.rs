@@ -10,6 +10,7 @@ pub mod artifacts;
 pub mod column;
 pub mod horizon;
 pub mod radial;
+pub mod refine;
 pub mod sampling;
 
 use crate::camera::{Camera, View};

@@ -121,6 +121,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
             let mut sw = RadialSweep::new(ctx, phi, &bin);
             sw.run();
+            sw.solve();
             Ok((sw.out, sw.stats))
         })
         .collect();
@@ -146,6 +147,9 @@ struct RadialSweep<'c, 'a> {
     cov: Vec<(f64, f64)>,
     out: Vec<(usize, Pixel)>,
     stats: ColumnStats,
+    jobs: Vec<super::refine::Job>,
+    /// Seen side of each job (for the march fallback).
+    job_side: Vec<i8>,
     /// Screen pixels per radian of θ (conservative).
     ppr: f64,
 }
@@ -160,8 +164,35 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             cov: Vec::new(),
             out: Vec::new(),
             stats: ColumnStats::default(),
+            jobs: Vec::new(),
+            job_side: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
         }
+    }
+
+    fn depth(&self, x: f64) -> f64 {
+        self.cov
+            .iter()
+            .find(|&&(a, b)| x >= a && x <= b)
+            .map(|&(a, b)| (x - a).min(b - x))
+            .unwrap_or(0.0)
+    }
+
+    fn hidden(&self, a: &Sample, b: &Sample) -> bool {
+        let Some((lo, hi)) = self
+            .cov
+            .iter()
+            .copied()
+            .find(|&(l, h)| a.rho >= l && a.rho <= h)
+        else {
+            return false;
+        };
+        let (lo, hi) = (lo + 1.0, hi - 1.0);
+        if !(a.rho >= lo && a.rho <= hi && b.rho >= lo && b.rho <= hi) {
+            return false;
+        }
+        let dt = b.t - a.t;
+        super::column::hermite_inside(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt, lo, hi)
     }
 
     fn covered(&self, x: f64) -> bool {
@@ -274,7 +305,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 Some(a) => {
                     let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
-                    let hs = if r > 0.0 && r.is_finite() {
+                    let deep = self.depth(a.rho) > 2.0 * opts.step;
+                    let hs = if !deep && r > 0.0 && r.is_finite() {
                         (opts.step / r).min(cap)
                     } else {
                         cap
@@ -297,12 +329,17 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
-                        if gap > opts.step && halvings < 40 && (rn - rho) > 1e-9 * fp_at(&a) {
-                            hstep = 0.5 * (rn - rho);
+                        let hidden = gap > opts.step && self.hidden(&a, &b);
+                        if gap > opts.step
+                            && !hidden
+                            && halvings < 40
+                            && (rn - rho) > 1e-9 * fp_at(&a)
+                        {
+                            hstep = (rn - rho) * (0.9 * opts.step / gap).clamp(0.05, 0.5);
                             halvings += 1;
                             continue;
                         }
-                        let wall = gap > opts.step;
+                        let wall = gap > opts.step && !hidden;
                         if wall {
                             self.stats.walls += 1;
                         }
@@ -324,6 +361,42 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 self.stats.early_exit += 1;
                 break;
             }
+        }
+    }
+
+    /// The batched exact solve of the bin's pixels, with a march along the
+    /// ray for those Newton could not settle (the pixel's ray is up to half
+    /// a pixel off the bin's plane, so its seed can be poor at grazing).
+    fn solve(&mut self) {
+        if self.jobs.is_empty() {
+            return;
+        }
+        let mut px: Vec<Pixel> = self.out.iter().map(|(_, p)| *p).collect();
+        let jobs = std::mem::take(&mut self.jobs);
+        let (failed, evals) = super::refine::solve(self.ctx, &jobs, &mut px);
+        self.stats.refine_evals += evals;
+        for slot in failed {
+            let k = jobs.partition_point(|j| j.slot < slot);
+            let j = jobs[k];
+            let side = self.job_side[k];
+            match self.march(j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, side) {
+                Some((lam, hs)) => {
+                    let q = j.o + lam * j.dir;
+                    let depth = (q - j.o).dot(self.ctx.cam.d);
+                    super::refine::finish(
+                        self.ctx,
+                        &mut px[slot],
+                        j.dir,
+                        depth,
+                        DVec2::new(q.x, q.y),
+                        &hs,
+                    );
+                }
+                None => self.stats.refine_fail += 1,
+            }
+        }
+        for (o, p) in self.out.iter_mut().zip(px) {
+            o.1 = p;
         }
     }
 
@@ -411,33 +484,21 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             cover: 1.0,
         };
         if ctx.refine && !wall {
+            // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
             let la = (pa - e).length();
             let lb = (pb - e).length();
             let span = (la - lb).abs();
-            let lo = la.min(lb).min(lam0) - 4.0 * fp - span;
-            let hi = la.max(lb).max(lam0) + 4.0 * fp + span;
-            let r = self
-                .newton(dir, lam0, lo, hi, fp)
-                .or_else(|| self.march(dir, lo - 8.0 * fp, hi + 8.0 * fp, fp, topo));
-            match r {
-                Some((lam, hs)) => {
-                    let q = e + lam * dir;
-                    px.depth = (q - e).dot(cam.d);
-                    px.uv = DVec2::new(q.x, q.y);
-                    px.n = hs.normal();
-                    let c = -dir.dot(px.n);
-                    if c != 0.0 {
-                        px.side = if c > 0.0 { 1 } else { -1 };
-                    }
-                }
-                None => {
-                    // The pixel's own ray (up to half a pixel off its bin's
-                    // plane) passes the surface there: a silhouette miss.
-                    // Kept interpolated (counted).
-                    self.stats.refine_fail += 1;
-                }
-            }
+            self.jobs.push(super::refine::Job {
+                slot: self.out.len(),
+                o: e,
+                dir,
+                lam: lam0,
+                lo: la.min(lb).min(lam0) - 4.0 * fp - span,
+                hi: la.max(lb).max(lam0) + 4.0 * fp + span,
+                fp,
+            });
+            self.job_side.push(topo);
         }
         if wall && ctx.opts.corrections.walls {
             let hz = DVec3::new(self.eh.x, self.eh.y, 0.0);
@@ -519,50 +580,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
             la = lb;
             ga = gb;
-        }
-        None
-    }
-
-    fn newton(
-        &mut self,
-        dir: DVec3,
-        lam0: f64,
-        lo: f64,
-        hi: f64,
-        fp: f64,
-    ) -> Option<(f64, HeightSample)> {
-        let ctx = self.ctx;
-        let e = ctx.cam.eye;
-        let dom = ctx.frame.domain;
-        let tol = ctx.opts.refine_tol * fp;
-        let mut lam = lam0;
-        for _ in 0..ctx.opts.refine_iters {
-            let p = e + lam * dir;
-            if !dom.contains(p.x, p.y) {
-                return None;
-            }
-            self.stats.refine_evals += 1;
-            let hs = ctx.field.eval(p.x, p.y);
-            if !hs.is_finite() {
-                return None;
-            }
-            let g = p.z - hs.f;
-            let gp = dir.z - (hs.fu * dir.x + hs.fv * dir.y);
-            if gp == 0.0 || !gp.is_finite() {
-                return None;
-            }
-            let dl = g / gp;
-            lam -= dl;
-            if !(lam >= lo && lam <= hi) {
-                return None;
-            }
-            if dl.abs() <= tol {
-                let q = e + lam * dir;
-                if !dom.contains(q.x, q.y) {
-                    return None;
-                }
-                return Some((lam, hs));
-            }
         }
         None
     }
