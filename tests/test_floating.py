@@ -128,3 +128,53 @@ def test_identical_for_any_thread_count():
     for k in ALL:
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
     assert a.samples == b.samples
+
+
+HARD_VIEWS = [
+    dict(elevation=0, azimuth=0, view_height=8.0),
+    dict(elevation=0.5, azimuth=33, view_height=8.0),
+    dict(elevation=89.9, azimuth=0, view_height=8.0),
+    dict(elevation=90, azimuth=17, view_height=8.0),
+    dict(elevation=-30, azimuth=45, view_height=8.0),
+    dict(elevation=90, azimuth=0, projection="perspective", distance=6.0, fov=60.0),
+    dict(elevation=10, azimuth=5, projection="perspective", distance=2.0, fov=60.0),
+]
+
+
+@pytest.mark.parametrize("kw", HARD_VIEWS, ids=[str(i) for i in range(len(HARD_VIEWS))])
+def test_hard_views_match_reference(kw):
+    """SPEC §5 views (level, grazing, straight down, from below, eye close
+    to the surface): the same accuracy where the case is well posed."""
+    name = "bump"
+    view = make_view(kw)
+    img = fcol.render(surface(name), view, 64, 48, outputs=ALL + ("intensity",))
+    assert not np.isnan(img.intensity[img.mask]).any()
+    ref = reference(name, kw, 64, 48)
+    res = compare(img, ref, view)
+    assert res["mask_bad"] == 0, res
+    if res["n_compared"] > 50:
+        assert res["depth_px_median"] <= 0.02 and res["normal_deg_median"] <= 0.05, res
+        assert res["side_bad"] == 0, res
+
+
+def test_step_constant_nan_and_scales():
+    view = fcol.View(35, 20, view_height=3.0)
+    step = fcol.Function(lambda u, v: np.where(u > 0, 0.5, 0.0), grad=lambda u, v: (0 * u, 0 * v),
+                         domain=((-1, 1), (-1, 1)))
+    img = fcol.render(step, view, 60, 40, outputs=("rgb", "intensity", "mask", "depth"))
+    assert img.mask.sum() > 300 and not np.isnan(img.intensity[img.mask]).any()
+    assert img.stats["walls"] > 0  # the step is seen as a wall (§5.1)
+    flat = fcol.Function("0*u + 1.5", domain=((-1, 1), (-1, 1)))
+    img = fcol.render(flat, fcol.View(90, 0, view_height=3.0), 30, 30, outputs=("depth", "normal", "mask"))
+    m = img.mask
+    assert m.sum() == 20 * 20 and np.allclose(img.normal[m], (0, 0, 1))
+    holes = fcol.Function(lambda u, v: np.where(u * u + v * v < 0.25, np.nan, 0.1 * u),
+                          grad=lambda u, v: (0.1 + 0 * u, 0 * v), domain=((-1, 1), (-1, 1)))
+    img = fcol.render(holes, fcol.View(60, 10, view_height=3.0), 40, 40, outputs=("rgb", "mask", "depth"))
+    assert not img.mask[20, 20] and img.mask.sum() > 300
+    assert np.isnan(img.depth[~img.mask]).all() and np.isfinite(img.depth[img.mask]).all()
+    for scale in (1e-6, 1e6):
+        s = fcol.Function(f"{scale}*exp(-(u*u + v*v)/({scale}*{scale}))",
+                          domain=((-2 * scale, 2 * scale), (-2 * scale, 2 * scale)))
+        img = fcol.render(s, fcol.View(40, 20, view_height=5 * scale), 40, 30, outputs=("depth", "mask"))
+        assert 200 < img.mask.sum() < 1200 and np.isfinite(img.depth[img.mask]).all()
