@@ -27,8 +27,6 @@ pub struct Pixel {
     pub n: DVec3,
     pub uv: DVec2,
     pub inten: f64,
-    /// Fraction of the pixel covered (sub-pixel silhouette coverage, §6.4).
-    pub cover: f64,
 }
 
 /// Counters of one column.
@@ -498,7 +496,6 @@ impl<'c, 'a> Sweep<'c, 'a> {
             n,
             uv,
             inten,
-            cover: 1.0,
         };
         let (o, dir) = self.ctx.cam.ray(row, self.col);
         if self.ctx.refine && !wall {
@@ -632,7 +629,6 @@ impl<'c, 'a> Sweep<'c, 'a> {
                     n,
                     uv: DVec2::new(q.x, q.y),
                     inten,
-                    cover: 1.0,
                 };
                 self.stats.fold_fixes += 1;
                 return;

@@ -147,6 +147,12 @@ pub fn render_floating_column(
         ));
     }
     let cam = Camera::new(view, width, height)?;
+    if cam.perspective && opts.antialias > 1 {
+        return Err(FcolError::value(
+            "antialias",
+            "column supersampling applies to orthographic views; render a larger perspective image and downsample",
+        ));
+    }
     let frame = sampling::Frame::new(&cam, field.domain());
     let refine = opts.refine
         && (outputs.depth

@@ -481,7 +481,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             n: n_i,
             uv: DVec2::new(q0.x, q0.y),
             inten: a.inten + tau * (b.inten - a.inten),
-            cover: 1.0,
         };
         if ctx.refine && !wall {
             // Solved after the sweep, batched with the bin's other pixels.

@@ -83,6 +83,11 @@ class MeshCaster:
         O, D = view.rays(W, H)
         O = O.reshape(-1, 3)
         D = D.reshape(-1, 3)
+        if view.eye is None:
+            # Orthographic rays are whole lines: start them well behind the
+            # surface's bounding box (embree casts forward only).
+            back = 4.0 * float(np.abs(self.verts).max()) + 1.0
+            O = O - back * D
         tri = np.asarray(self.isect.intersects_first(O, D), np.int64)
         hit = tri >= 0
         t = self.faces[tri[hit]]
