@@ -3,8 +3,11 @@
 //! (§4.2, A.2: shaded, every pixel column independent).
 //!
 //! The sampling geometry (§3, derived for the SPEC §1 camera) is in
-//! [`sampling`], the column sweep in [`column`], the §5 artifact tests and
-//! corrections in [`artifacts`], the line drawing in [`horizon`].
+//! [`sampling`]; the orthographic column sweep in [`column`]; the
+//! perspective sweep, run in vertical planes through the eye so that every
+//! section is a graph and the sweep stays exact, in [`radial`]; the batched
+//! exact per-pixel solve in [`refine`]; the §5 artifact tests and
+//! corrections in [`artifacts`]; the line drawing in [`horizon`].
 
 pub mod artifacts;
 pub mod column;
