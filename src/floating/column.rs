@@ -79,19 +79,32 @@ impl Coverage {
         self.iv.iter().any(|&(a, b)| x >= a && x <= b)
     }
     fn add(&mut self, lo: f64, hi: f64) {
-        let (mut lo, mut hi) = (lo, hi);
-        let mut out = Vec::with_capacity(self.iv.len() + 1);
-        for &(a, b) in &self.iv {
+        // In place (no allocation in the common case of one interval).
+        let mut first: Option<usize> = None;
+        let mut k = 0;
+        while k < self.iv.len() {
+            let (a, b) = self.iv[k];
             if b < lo || a > hi {
-                out.push((a, b));
-            } else {
-                lo = lo.min(a);
-                hi = hi.max(b);
+                k += 1;
+                continue;
+            }
+            match first {
+                None => {
+                    self.iv[k] = (a.min(lo), b.max(hi));
+                    first = Some(k);
+                    k += 1;
+                }
+                Some(f) => {
+                    let (fa, fb) = self.iv[f];
+                    self.iv[f] = (fa.min(a), fb.max(b));
+                    self.iv.remove(k);
+                }
             }
         }
-        out.push((lo, hi));
-        out.sort_by(|x, y| x.0.total_cmp(&y.0));
-        self.iv = out;
+        if first.is_none() {
+            let pos = self.iv.partition_point(|&(a, _)| a < lo);
+            self.iv.insert(pos, (lo, hi));
+        }
     }
     /// Distance of x inside its covered interval (0 when not covered).
     fn depth(&self, x: f64) -> f64 {
@@ -136,6 +149,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         lateral_tol: 0.02,
         d: ctx.cam.d,
         shading: ctx.shading,
+        shade: ctx.opts.shading == ShadingMode::Intensity || ctx.opts.corrections.any_detection(),
     };
     let mut sw = Sweep {
         ctx,
@@ -144,7 +158,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         cov: Coverage::default(),
         h: ctx.cam.height,
         stats: ColumnStats::default(),
-        jobs: Vec::new(),
+        jobs: Vec::with_capacity(if ctx.refine { ctx.cam.height } else { 0 }),
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {

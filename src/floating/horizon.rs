@@ -141,6 +141,7 @@ pub fn render_floating_horizon(
                     lateral_tol: 0.02,
                     d: cam.d,
                     shading,
+                    shade: false,
                 };
                 let s = sampler.sample(t1, fhr[col].w);
                 samples += sampler.evals;

@@ -226,11 +226,19 @@ pub fn render_floating_column(
                         Ok((centre, acc, st))
                     })
                     .collect();
-                for (k, r) in cols.into_iter().enumerate() {
+                let mut done = Vec::with_capacity(cols.len());
+                for r in cols {
                     let (px, acc, st) = r?;
                     total.add(&st);
-                    let j = j0 + k;
-                    write_column(&mut buf, j, &px, &acc, shading, shade_aa);
+                    done.push((px, acc));
+                }
+                // Row by row, so that the writes into the row-major buffers
+                // are contiguous.
+                for i in 0..height {
+                    for (k, (px, acc)) in done.iter().enumerate() {
+                        let a = if shade_aa { Some(acc[i]) } else { None };
+                        write_pixel(&mut buf, i * width + j0 + k, &px[i], a, shading);
+                    }
                 }
                 j0 = j1;
             }
@@ -250,67 +258,56 @@ pub fn render_floating_column(
 }
 
 fn write_rows(buf: &mut Buffers, px: &[Pixel], shading: &Shading) {
-    let w = buf.width;
-    for j in 0..w {
-        let col: Vec<Pixel> = px.iter().skip(j).step_by(w).copied().collect();
-        write_column(buf, j, &col, &[], shading, false);
+    for (k, p) in px.iter().enumerate() {
+        write_pixel(buf, k, p, None, shading);
     }
 }
 
-fn write_column(
-    buf: &mut Buffers,
-    j: usize,
-    px: &[Pixel],
-    acc: &[[f64; 4]],
-    shading: &Shading,
-    shade_aa: bool,
-) {
-    let w = buf.width;
-    for (i, p) in px.iter().enumerate() {
-        let k = i * w + j;
-        if shade_aa {
-            let a = acc[i];
-            if let Some(rgb) = buf.rgb.as_mut() {
-                for c in 0..3 {
-                    rgb[3 * k + c] = a[c].round().clamp(0.0, 255.0) as u8;
-                }
-            }
-            if let Some(v) = buf.intensity.as_mut() {
-                if a[3] != 0.0 || p.set {
-                    v[k] = a[3] as f32;
-                }
+/// Write pixel k (row-major index); `acc` is the supersampled colour and
+/// intensity when column supersampling is on.
+#[inline]
+fn write_pixel(buf: &mut Buffers, k: usize, p: &Pixel, acc: Option<[f64; 4]>, shading: &Shading) {
+    if let Some(a) = acc {
+        if let Some(rgb) = buf.rgb.as_mut() {
+            for c in 0..3 {
+                rgb[3 * k + c] = a[c].round().clamp(0.0, 255.0) as u8;
             }
         }
-        if !p.set {
-            continue;
-        }
-        if !shade_aa {
-            if let Some(rgb) = buf.rgb.as_mut() {
-                let c = shading.colour(p.inten, p.side);
-                rgb[3 * k..3 * k + 3].copy_from_slice(&c);
-            }
-            if let Some(v) = buf.intensity.as_mut() {
-                v[k] = p.inten as f32;
+        if let Some(v) = buf.intensity.as_mut() {
+            if a[3] != 0.0 || p.set {
+                v[k] = a[3] as f32;
             }
         }
-        if let Some(v) = buf.depth.as_mut() {
-            v[k] = p.depth as f32;
+    }
+    if !p.set {
+        return;
+    }
+    if acc.is_none() {
+        if let Some(rgb) = buf.rgb.as_mut() {
+            let c = shading.colour(p.inten, p.side);
+            rgb[3 * k..3 * k + 3].copy_from_slice(&c);
         }
-        if let Some(v) = buf.normal.as_mut() {
-            v[3 * k] = p.n.x as f32;
-            v[3 * k + 1] = p.n.y as f32;
-            v[3 * k + 2] = p.n.z as f32;
+        if let Some(v) = buf.intensity.as_mut() {
+            v[k] = p.inten as f32;
         }
-        if let Some(v) = buf.uv.as_mut() {
-            v[2 * k] = p.uv.x as f32;
-            v[2 * k + 1] = p.uv.y as f32;
-        }
-        if let Some(v) = buf.side.as_mut() {
-            v[k] = p.side;
-        }
-        if let Some(v) = buf.mask.as_mut() {
-            v[k] = true;
-        }
+    }
+    if let Some(v) = buf.depth.as_mut() {
+        v[k] = p.depth as f32;
+    }
+    if let Some(v) = buf.normal.as_mut() {
+        v[3 * k] = p.n.x as f32;
+        v[3 * k + 1] = p.n.y as f32;
+        v[3 * k + 2] = p.n.z as f32;
+    }
+    if let Some(v) = buf.uv.as_mut() {
+        v[2 * k] = p.uv.x as f32;
+        v[2 * k + 1] = p.uv.y as f32;
+    }
+    if let Some(v) = buf.side.as_mut() {
+        v[k] = p.side;
+    }
+    if let Some(v) = buf.mask.as_mut() {
+        v[k] = true;
     }
 }
 

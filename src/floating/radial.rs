@@ -200,19 +200,32 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     }
 
     fn add(&mut self, lo: f64, hi: f64) {
-        let (mut lo, mut hi) = (lo, hi);
-        let mut out = Vec::with_capacity(self.cov.len() + 1);
-        for &(a, b) in &self.cov {
+        // In place (no allocation in the common case of one interval).
+        let mut first: Option<usize> = None;
+        let mut k = 0;
+        while k < self.cov.len() {
+            let (a, b) = self.cov[k];
             if b < lo || a > hi {
-                out.push((a, b));
-            } else {
-                lo = lo.min(a);
-                hi = hi.max(b);
+                k += 1;
+                continue;
+            }
+            match first {
+                None => {
+                    self.cov[k] = (a.min(lo), b.max(hi));
+                    first = Some(k);
+                    k += 1;
+                }
+                Some(f) => {
+                    let (fa, fb) = self.cov[f];
+                    self.cov[f] = (fa.min(a), fb.max(b));
+                    self.cov.remove(k);
+                }
             }
         }
-        out.push((lo, hi));
-        out.sort_by(|x, y| x.0.total_cmp(&y.0));
-        self.cov = out;
+        if first.is_none() {
+            let pos = self.cov.partition_point(|&(a, _)| a < lo);
+            self.cov.insert(pos, (lo, hi));
+        }
     }
 
     /// The surface sample at horizontal distance ρ (None: hole).
@@ -240,8 +253,18 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let dth = (rho * f_rho - wr) / (rho * rho + wr * wr).max(1e-300);
         let p = DVec3::new(uv.x, uv.y, hs.f);
         let n = hs.normal();
-        let to_eye = (e - p).normalize_or(-ctx.cam.d);
-        let ldotn = to_eye.dot(n);
+        let shade =
+            ctx.opts.shading == ShadingMode::Intensity || ctx.opts.corrections.any_detection();
+        let (ldotn, inten, lxn) = if shade {
+            let to_eye = (e - p).normalize_or(-ctx.cam.d);
+            (
+                to_eye.dot(n),
+                ctx.shading.intensity(n, to_eye),
+                to_eye.cross(n),
+            )
+        } else {
+            (0.0, 0.0, DVec3::ZERO)
+        };
         Sample {
             t: rho,
             s: 0.0,
@@ -253,9 +276,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             z: (p - e).dot(ctx.cam.d),
             drho_dt: self.ppr * dth,
             dw_dt: f_rho,
-            inten: ctx.shading.intensity(n, to_eye),
+            inten,
             ldotn,
-            lxn: to_eye.cross(n),
+            lxn,
             fold: false,
         }
     }

@@ -265,6 +265,9 @@ pub struct Sampler<'a> {
     pub lateral_tol: f64,
     pub d: DVec3,
     pub shading: &'a crate::shade::Shading,
+    /// Compute the sample's intensity and its §5 products (Gouraud mode or
+    /// problem detection); otherwise they are left at 0.
+    pub shade: bool,
 }
 
 impl<'a> Sampler<'a> {
@@ -370,10 +373,17 @@ impl<'a> Sampler<'a> {
             -dy / fr.pixel
         };
         let n = h.normal();
-        let p = DVec3::new(uv.x, uv.y, h.f);
-        let l_vec = fr.to_eye(p, self.d);
-        let ldotn = l_vec.dot(n);
-        let inten = self.shading.intensity(n, l_vec);
+        let (ldotn, inten, lxn) = if self.shade {
+            let p = DVec3::new(uv.x, uv.y, h.f);
+            let l_vec = fr.to_eye(p, self.d);
+            (
+                l_vec.dot(n),
+                self.shading.intensity(n, l_vec),
+                l_vec.cross(n),
+            )
+        } else {
+            (0.0, 0.0, DVec3::ZERO)
+        };
         Sample {
             t,
             s,
@@ -387,7 +397,7 @@ impl<'a> Sampler<'a> {
             dw_dt,
             inten,
             ldotn,
-            lxn: l_vec.cross(n),
+            lxn,
             fold,
         }
     }
