@@ -39,7 +39,6 @@ pub struct ColumnStats {
     pub walls: u64,
     pub problems: u64,
     pub early_exit: u64,
-    pub fold_fixes: u64,
 }
 
 impl ColumnStats {
@@ -51,7 +50,6 @@ impl ColumnStats {
         self.walls += o.walls;
         self.problems += o.problems;
         self.early_exit += o.early_exit;
-        self.fold_fixes += o.fold_fixes;
     }
 }
 
@@ -182,16 +180,6 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         let (failed, evals) = super::refine::solve(ctx, &sw.jobs, out);
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed.len() as u64;
-    }
-    if sw.sampler.folds > 0 {
-        // The column's plane is tangent to the surface somewhere across it
-        // (1 − κ f_s ≤ 0: the section folds over in t, a perspective-only
-        // event), so the t-sweep may have followed one sheet of the fold and
-        // missed a nearer one: check every pixel of the column by marching
-        // its ray up to the hit found.
-        for i in 0..ctx.cam.height {
-            sw.verify(i, out);
-        }
     }
     sw.stats.sweep_evals = sw.sampler.evals;
     sw.stats.folds = sw.sampler.folds;
@@ -547,109 +535,6 @@ impl<'c, 'a> Sweep<'c, 'a> {
             px.inten = self.ctx.shading.intensity(px.n, -dir);
         }
         px
-    }
-
-    /// March pixel i's ray from where it enters the domain up to its current
-    /// hit (or its exit), one lateral footprint at a time, and take the first
-    /// sign change of h(λ) = w_ray − f if it comes before the current hit.
-    fn verify(&mut self, i: usize, out: &mut [Pixel]) {
-        let fr = self.ctx.frame;
-        let cam = self.ctx.cam;
-        let (o, dir) = cam.ray(i as f64, self.col);
-        let dd = dir.dot(cam.d);
-        let dom = fr.domain;
-        let (mut l0, mut l1) = (
-            if fr.persp { 0.0 } else { f64::NEG_INFINITY },
-            f64::INFINITY,
-        );
-        for (oc, dc, a, b) in [(o.x, dir.x, dom.u0, dom.u1), (o.y, dir.y, dom.v0, dom.v1)] {
-            if dc.abs() < 1e-300 {
-                if oc < a || oc > b {
-                    return;
-                }
-            } else {
-                let (p, q) = ((a - oc) / dc, (b - oc) / dc);
-                l0 = l0.max(p.min(q));
-                l1 = l1.min(p.max(q));
-            }
-        }
-        if l0 >= l1 || l0.is_nan() || l1.is_nan() || !l0.is_finite() {
-            return;
-        }
-        let p0 = out[i];
-        let lam_hit = if p0.set {
-            if fr.persp {
-                p0.depth / dd
-            } else {
-                p0.depth
-            }
-        } else {
-            l1
-        };
-        let hor = (dir.x * dir.x + dir.y * dir.y).sqrt().max(0.25);
-        let h = |s: &mut Self, l: f64| -> Option<(f64, crate::surface::HeightSample)> {
-            let p = o + l * dir;
-            s.stats.refine_evals += 1;
-            let hs = s
-                .ctx
-                .field
-                .eval(p.x.clamp(dom.u0, dom.u1), p.y.clamp(dom.v0, dom.v1));
-            hs.is_finite().then_some((p.z - hs.f, hs))
-        };
-        let mut la = l0;
-        let Some((mut ga, _)) = h(self, la) else {
-            return;
-        };
-        let end = lam_hit.min(l1);
-        let mut steps = 0;
-        while la < end && steps < 100_000 {
-            steps += 1;
-            let z = if fr.persp { la * dd } else { la };
-            let step = self.ctx.opts.max_step * fr.footprint(z.max(fr.near)) / hor;
-            let lb = (la + step).min(end);
-            let Some((gb, _)) = h(self, lb) else { return };
-            if ga * gb < 0.0 {
-                // Bisection, then the exact sample at the root.
-                let (mut a, mut b, mut fa) = (la, lb, ga);
-                for _ in 0..60 {
-                    let m = 0.5 * (a + b);
-                    let Some((fm, _)) = h(self, m) else { return };
-                    if fa * fm <= 0.0 {
-                        b = m;
-                    } else {
-                        a = m;
-                        fa = fm;
-                    }
-                    if (b - a) < 1e-7 * fr.footprint(z.max(fr.near)) {
-                        break;
-                    }
-                }
-                let lr = 0.5 * (a + b);
-                let z = if fr.persp { lr * dd } else { lr };
-                let tol = 0.5 * fr.footprint(z.max(fr.near));
-                if p0.set && lr >= lam_hit - tol {
-                    return;
-                }
-                let Some((_, hs)) = h(self, lr) else { return };
-                let q = o + lr * dir;
-                let n = hs.normal();
-                let c = -dir.dot(n);
-                let side = if c >= 0.0 { 1 } else { -1 };
-                let inten = self.ctx.shading.intensity(n, -dir);
-                out[i] = Pixel {
-                    set: true,
-                    side,
-                    depth: z,
-                    n,
-                    uv: DVec2::new(q.x, q.y),
-                    inten,
-                };
-                self.stats.fold_fixes += 1;
-                return;
-            }
-            la = lb;
-            ga = gb;
-        }
     }
 }
 

@@ -249,11 +249,9 @@ pub fn render_floating_column(
     buf.stat("sweep_samples", total.sweep_evals as f64);
     buf.stat("refine_evals", total.refine_evals as f64);
     buf.stat("refine_failures", total.refine_fail as f64);
-    buf.stat("fold_samples", total.folds as f64);
     buf.stat("walls", total.walls as f64);
     buf.stat("problems", total.problems as f64);
     buf.stat("early_exits", total.early_exit as f64);
-    buf.stat("fold_fixes", total.fold_fixes as f64);
     Ok(buf)
 }
 

@@ -18,7 +18,11 @@
 //!   κ = x_pix·d_w/F. The seed (eq. 9) takes w' = 0 here, which puts samples
 //!   off the column by x_pix·w'·d_w/z pixels; we solve s = a·t + κ·f(s, t)
 //!   instead (Newton on w', predicted from the previous sample, usually a
-//!   single evaluation), so each sample lies in the column's plane.
+//!   single evaluation), so each sample lies in the column's plane. Where
+//!   the plane is tangent to the surface (1 − κ f_s = 0) the section folds
+//!   and is no graph over t; the floating horizon (which needs constant-t
+//!   planes) keeps this sampler there, while the floating column sweeps
+//!   perspective views in vertical planes instead (see `radial`).
 
 use crate::camera::Camera;
 use crate::surface::{Domain, HeightField, HeightSample};
