@@ -57,6 +57,7 @@ class View:
 _Domain = tuple[tuple[float, float], tuple[float, float]]
 _Arr = npt.NDArray[np.float64]
 
+@final
 class Function:
     def __new__(
         cls,
@@ -81,6 +82,7 @@ class Function:
     @property
     def calls(self) -> int: ...
 
+@final
 class Parametric:
     def __new__(
         cls,
@@ -105,6 +107,30 @@ class Parametric:
     def params(self) -> dict[str, float]: ...
     @property
     def calls(self) -> int: ...
+
+# raster
+
+def raster_line(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_line_aa(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+def raster_polygon(
+    rows: npt.NDArray[np.float64],
+    cols: npt.NDArray[np.float64],
+    shape: tuple[int, int] | None = None,
+    rule: str = "evenodd",
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_triangles(
+    vertices: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64] | None,
+    height: int,
+    width: int,
+    cull_backfaces: bool = False,
+    perspective_correct: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int32]]: ...
 
 # --- floating horizon and floating column (function surfaces) -------------
 

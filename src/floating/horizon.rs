@@ -15,30 +15,17 @@ use crate::image::{Buffers, Outputs};
 use crate::shade::Shading;
 use crate::surface::HeightField;
 
-/// Bresenham line between integer pixels (x0, y0) and (x1, y1), y up,
-/// plotting only pixels inside the image.
+/// Line between integer pixels (x0, y0) and (x1, y1), y up, drawn with
+/// fcol's raster line (Bresenham, as scikit-image's `draw.line`), plotting
+/// only the pixels inside the image.
 pub fn line(lines: &mut [u8], w: usize, h: usize, x0: i64, y0: i64, x1: i64, y1: i64) {
-    let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
-    let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
-    let (mut x, mut y, mut err) = (x0, y0, dx + dy);
-    // Skip quickly over long runs outside the image.
-    let max_iter = (dx - dy + 1) as usize;
-    for _ in 0..max_iter {
-        if x >= 0 && (x as usize) < w && y >= 0 && (y as usize) < h {
-            let row = h - 1 - y as usize;
-            lines[row * w + x as usize] = 255;
-        }
-        if x == x1 && y == y1 {
-            break;
-        }
-        let e2 = 2 * err;
-        if e2 >= dy {
-            err += dy;
-            x += sx;
-        }
-        if e2 <= dx {
-            err += dx;
-            y += sy;
+    let top = h as i64 - 1;
+    let Ok((rows, cols)) = crate::raster::line(top - y0, x0, top - y1, x1) else {
+        return;
+    };
+    for (r, c) in rows.into_iter().zip(cols) {
+        if r >= 0 && c >= 0 && (r as usize) < h && (c as usize) < w {
+            lines[r as usize * w + c as usize] = 255;
         }
     }
 }

@@ -892,8 +892,8 @@ enum ParKind {
 /// >>> [round(float(c), 12) for c in s(0.0, 0.0)]
 /// [1.0, 0.0, 0.0]
 /// >>> pu, pv = s.jacobian(0.0, 0.0)
-/// >>> pu.tolist(), pv.tolist()
-/// ([0.0, 1.0, 0.0], [-0.0, -0.0, 1.0])
+/// >>> (pu + 0.0).tolist(), (pv + 0.0).tolist()  # + 0.0 folds -0.0 into 0.0
+/// ([0.0, 1.0, 0.0], [0.0, 0.0, 1.0])
 #[pyclass(name = "Parametric", module = "fcol._fcol", frozen)]
 pub struct PyParametric {
     kind: ParKind,

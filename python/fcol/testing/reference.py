@@ -27,7 +27,7 @@ reference so colour images can be compared by SSIM.
 >>> view = fcol.View(90, 0, view_height=2.0)
 >>> ref = height_reference(lambda u, v: 0 * u + 0.25, lambda u, v: (0 * u, 0 * v),
 ...                        ((-1, 1), (-1, 1)), view, 8, 8, mesh=8)
->>> bool(ref.mask.all()), float(ref.depth[0, 0]), int(ref.side[0, 0])
+>>> bool(ref.mask.all()), round(float(ref.depth[0, 0]), 12), int(ref.side[0, 0])
 (True, -0.25, 1)
 """
 
@@ -167,11 +167,17 @@ class _HeightRays:
         return w, gu, gv
 
     def g(self, rid: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """g and g' at ray parameters s; rid has the shape of s, or s has
+        one more (trailing) axis than rid (several samples per ray)."""
         O, D = self.O[rid], self.D[rid]
-        P = O + s[..., None] * D
-        w, gu, gv = self.fg(P[..., 0], P[..., 1])
+        if s.ndim > rid.ndim:
+            O, D = O[..., None, :], D[..., None, :]
+        pu = O[..., 0] + s * D[..., 0]
+        pv = O[..., 1] + s * D[..., 1]
+        pw = O[..., 2] + s * D[..., 2]
+        w, gu, gv = self.fg(pu, pv)
         with np.errstate(all="ignore"):
-            g = P[..., 2] - w
+            g = pw - w
             gp = D[..., 2] - gu * D[..., 0] - gv * D[..., 1]
         return g, gp
 
@@ -204,7 +210,9 @@ def _dangerous(ga, gb, gpa, gpb, h):
         if i.size:
             m = _hermite_min(ga[i], gb[i], gpa[i], gpb[i], h[i], sigma[i])
             out[i] = (m < 0) | ((m < ends[i]) & (m < 0.05 * slope[i]))
-    return out
+    # One end in a hole (NaN) of f: the edge of the defined region lies
+    # inside; bisect to find the surface up to that edge.
+    return out | (np.isfinite(ga) != np.isfinite(gb))
 
 
 def _polish(rays: _HeightRays, rid, a, b, ga, gb, iters: int = 80):
@@ -343,7 +351,7 @@ def height_reference(
     while act.size:
         k = np.arange(1, chunk + 1)
         S = np.minimum(s_cur[:, None] + k[None, :] * h[act, None], s_out[act, None])
-        G, GP = rays.g(np.repeat(act, chunk).reshape(-1, chunk), S)
+        G, GP = rays.g(act, S)
         Sa = np.concatenate([s_cur[:, None], S[:, :-1]], 1)
         Ga = np.concatenate([g_cur[:, None], G[:, :-1]], 1)
         GPa = np.concatenate([gp_cur[:, None], GP[:, :-1]], 1)
@@ -378,7 +386,7 @@ def height_reference(
         a0 = np.maximum(s_mesh[mh] - h[mh], s_in[mh])
         b0 = np.minimum(s_mesh[mh] + h[mh], s_out[mh])
         T = a0[:, None] + (b0 - a0)[:, None] * np.linspace(0, 1, m + 1)[None, :]
-        G, GP = rays.g(np.repeat(mh, m + 1).reshape(-1, m + 1), T)
+        G, GP = rays.g(mh, T)
         rr = np.repeat(mh, m)
         pend.append((rr, T[:, :-1].ravel(), T[:, 1:].ravel(), G[:, :-1].ravel(), G[:, 1:].ravel(), GP[:, :-1].ravel(), GP[:, 1:].ravel()))
     stats["t_march"] = time.perf_counter() - t0
@@ -438,6 +446,15 @@ def height_reference(
     nrm = np.stack([-fu, -fv, np.ones_like(fu)], -1)
     nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
     good = ok & np.isfinite(nrm).all(1) & np.isfinite(w)
+    # A residual that did not vanish: the bracket closed on a jump of f (a
+    # step), not on a root. The ray meets the wall there; keep the hit but do
+    # not trust its normal and depth.
+    gx, _ = rays.g(hitr, s_hit)
+    dot = D[hitr] @ cam.d
+    pix_hit = cam.pixel_size(np.abs((O[hitr] + s_hit[:, None] * D[hitr] - cam.origin) @ cam.d)) if cam.persp else np.full(hitr.size, cam.p)
+    wall = ~(np.abs(gx) <= 1e-4 * pix_hit + 1e-12 * scale)
+    stats["walls"] = int(np.sum(wall & good))
+    wall = wall[good]
     hitr, P, u, v, nrm, s_hit = hitr[good], P[good], u[good], v[good], nrm[good], s_hit[good]
     side = np.where(br_ga[hitr] > 0, 1, np.where(br_ga[hitr] < 0, -1, np.where(br_gb[hitr] < 0, 1, -1)))
     P[:, 0], P[:, 1], P[:, 2] = u, v, w[good]
@@ -453,6 +470,7 @@ def height_reference(
     pix = pix_all.reshape(-1)
     pix[hitr] = cam.pixel_size(depth)
     trusted = np.ones(N, bool)
+    trusted[hitr[wall]] = False
     trusted[unresolved & ~flat["mask"]] = False  # a graze thinner than 1e-3 px
     trusted[np.isfinite(br_a) & ~flat["mask"]] = False  # bracket that did not polish
     # Crests the mesh missed: first hit more than a pixel before the mesh hit.
@@ -614,7 +632,8 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
     buffers ``image`` holds.
 
     * ``mask_bad``: pixels whose mask differs from the reference outside the
-      1-pixel band of the true silhouette (:func:`silhouette_band`);
+      1-pixel band of the true silhouette (:func:`silhouette_band`), on
+      trusted reference pixels; ``mask_bad_at``: the first ten (row, col);
     * ``depth_px_median``, ``depth_px_p99``, ``depth_px_max``: |depth − ref|
       divided by the world size of one pixel at the hit;
     * ``normal_deg_median``, ``normal_deg_p99``, ``normal_deg_max``: angle
@@ -635,7 +654,9 @@ def compare(image: Any, ref: Reference, view: Any, *, shading: dict | None = Non
     disc = discontinuity_band(ref, view, disc_tol_px)
     m = _image_mask(image)
     if m is not None:
-        res["mask_bad"] = int(np.sum((m != ref.mask) & ~sil))
+        bad = (m != ref.mask) & ~sil & ref.trusted
+        res["mask_bad"] = int(bad.sum())
+        res["mask_bad_at"] = [tuple(int(x) for x in p) for p in np.argwhere(bad)[:10]]
         both = m & ref.mask
     else:
         both = ref.mask.copy()
