@@ -39,6 +39,7 @@ pub struct ColumnStats {
     pub walls: u64,
     pub problems: u64,
     pub early_exit: u64,
+    pub holes_filled: u64,
 }
 
 impl ColumnStats {
@@ -50,6 +51,7 @@ impl ColumnStats {
         self.walls += o.walls;
         self.problems += o.problems;
         self.early_exit += o.early_exit;
+        self.holes_filled += o.holes_filled;
     }
 }
 

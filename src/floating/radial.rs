@@ -134,7 +134,68 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             pixels[k] = p;
         }
     }
+    fill_holes(ctx, &mut pixels, &mut stats);
     Ok((pixels, stats))
+}
+
+/// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
+/// that plane can pass through a notch (next to a crest) that the pixel's
+/// own ray does not. Unrevealed pixels between two revealed neighbours
+/// (above and below, or left and right) at similar depths are searched on
+/// their own ray, between the neighbours' hits.
+fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
+    let cam = ctx.cam;
+    let (w, h) = (cam.width, cam.height);
+    let mut sw = RadialSweep::new(ctx, 0.0, &[]);
+    let lam_of = |p: &Pixel, dir: DVec3| -> Option<f64> {
+        let dd = dir.dot(cam.d);
+        (p.set && dd > 0.0 && p.depth.is_finite()).then(|| p.depth / dd)
+    };
+    for i in 0..h {
+        for j in 0..w {
+            if px[i * w + j].set {
+                continue;
+            }
+            let (_, dir) = cam.ray(i as f64, j as f64);
+            let pairs = [
+                (i > 0 && i + 1 < h).then(|| ((i - 1) * w + j, (i + 1) * w + j)),
+                (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
+            ];
+            for (a, b) in pairs.into_iter().flatten() {
+                let (Some(l1), Some(l2)) = (lam_of(&px[a], dir), lam_of(&px[b], dir)) else {
+                    continue;
+                };
+                let fp = l1.min(l2).max(cam.near) / cam.focal;
+                if (l1 - l2).abs() > 64.0 * fp {
+                    continue;
+                }
+                let (lo, hi) = (l1.min(l2) - 8.0 * fp, l1.max(l2) + 8.0 * fp);
+                let hit = sw
+                    .march(dir, lo, hi, fp, 1)
+                    .or_else(|| sw.march(dir, lo, hi, fp, -1));
+                if let Some((l, hs)) = hit {
+                    let q = cam.eye + l * dir;
+                    let mut p = Pixel {
+                        set: true,
+                        side: 1,
+                        depth: (q - cam.eye).dot(cam.d),
+                        n: hs.normal(),
+                        uv: DVec2::new(q.x, q.y),
+                        inten: 0.0,
+                    };
+                    let depth = p.depth;
+                    super::refine::finish(ctx, &mut p, dir, depth, DVec2::new(q.x, q.y), &hs);
+                    if ctx.opts.shading == ShadingMode::Intensity {
+                        p.inten = ctx.shading.intensity(p.n, -dir);
+                    }
+                    px[i * w + j] = p;
+                    stats.holes_filled += 1;
+                    break;
+                }
+            }
+        }
+    }
+    stats.refine_evals += sw.stats.refine_evals;
 }
 
 struct RadialSweep<'c, 'a> {
