@@ -12,7 +12,9 @@ pub mod camera;
 pub mod cancel;
 pub mod error;
 pub mod expr;
+pub mod floating;
 pub mod horizon;
+
 pub mod image;
 pub mod raster;
 pub mod shade;

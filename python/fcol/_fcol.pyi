@@ -202,3 +202,14 @@ def horizon_points(
 def horizon_hull_stats(
     z: npt.NDArray[np.float64], du: float, dv: float, sectors: int, sector: int
 ) -> tuple[float, int]: ...
+# --- floating horizon and floating column (function surfaces) -------------
+
+def render_height(
+    surface: Function,
+    view: View,
+    width: int,
+    height: int,
+    method: Literal["floating_column", "floating_horizon"],
+    outputs: str | tuple[str, ...] | list[str],
+    options: dict[str, Any] | None = None,
+) -> dict[str, Any]: ...

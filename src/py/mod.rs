@@ -8,6 +8,7 @@ mod convert;
 mod errors;
 mod horizon;
 mod raster;
+mod render;
 mod run;
 pub mod surfaces;
 mod view;
@@ -26,6 +27,7 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     view::register(m)?;
     raster::register(m)?;
+    render::register(m)?;
     surfaces::register(m)?;
     horizon::register(m)?;
     Ok(())

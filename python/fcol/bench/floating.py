@@ -1,0 +1,266 @@
+"""Floating horizon and floating column (Gordon 2001) on 3 sin(u cos v) over
+[-5, 5]²: time against error, beside a mesh approach (trimesh + embreex on
+grid meshes of increasing resolution), matplotlib's ``plot_surface`` drawn
+to an array, and the floor (NumPy evaluating f, f_u, f_v once per pixel).
+
+Every timing runs in this one process, on the same inputs, one after the
+other; the ratios are what to read (the machines are shared and noisy).
+Errors are against ``fcol.testing.reference`` (the exact first hit)."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+import fcol
+from fcol.bench import median_time
+
+EXPR = "3*sin(u*cos(v))"
+DOMAIN = ((-5.0, 5.0), (-5.0, 5.0))
+
+# Gordon 2001, Table 1 (480 × 477): samples per figure.
+SEED_SAMPLES = {
+    "7 line, perspective": 25281,
+    "8 iis, no corrections": 25281,
+    "9 iis, supersampling": 86957,
+    "10 nis, spline corrections": 25281,
+    "11 nis, supersampling": 61149,
+    "12 line, perspective": 61533,
+    "13 iis, no corrections": 61533,
+    "14 iis, supersampling": 289575,
+}
+
+
+def f_np(u, v):
+    return 3 * np.sin(u * np.cos(v))
+
+
+def grad_np(u, v):
+    c = 3 * np.cos(u * np.cos(v))
+    return c * np.cos(v), -c * u * np.sin(v)
+
+
+def views() -> dict[str, Any]:
+    return {
+        "ortho": fcol.View(30, 30, view_height=13.0),
+        "persp": fcol.View(30, 40, "perspective", distance=24.0, fov=40.0),
+    }
+
+
+# ---------------------------------------------------------------- baselines
+
+
+def grid_mesh(n: int):
+    (u0, u1), (v0, v1) = DOMAIN
+    u = np.linspace(u0, u1, n)
+    v = np.linspace(v0, v1, n)
+    U, V = np.meshgrid(u, v)
+    verts = np.column_stack([U.ravel(), V.ravel(), f_np(U, V).ravel()])
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    faces = np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
+    return verts, faces
+
+
+class MeshCaster:
+    """Tessellate, build, ray-cast with trimesh + embreex, interpolate the
+    mesh's vertex normals: what users do today."""
+
+    def __init__(self, n: int):
+        import trimesh
+        from trimesh.ray.ray_pyembree import RayMeshIntersector
+
+        self.verts, self.faces = grid_mesh(n)
+        self.mesh = trimesh.Trimesh(vertices=self.verts, faces=self.faces, process=False)
+        self.vn = np.asarray(self.mesh.vertex_normals)
+        self.isect = RayMeshIntersector(self.mesh)
+
+    def cast(self, view, W: int, H: int):
+        O, D = view.rays(W, H)
+        O = O.reshape(-1, 3)
+        D = D.reshape(-1, 3)
+        if view.eye is None:
+            # Orthographic rays are whole lines: start them well behind the
+            # surface's bounding box (embree casts forward only).
+            back = 4.0 * float(np.abs(self.verts).max()) + 1.0
+            O = O - back * D
+        tri = np.asarray(self.isect.intersects_first(O, D), np.int64)
+        hit = tri >= 0
+        t = self.faces[tri[hit]]
+        a, b, c = self.verts[t[:, 0]], self.verts[t[:, 1]], self.verts[t[:, 2]]
+        e1, e2 = b - a, c - a
+        d = D[hit]
+        p = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, p)
+        q = O[hit] - a
+        qq = np.cross(q, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bu = np.einsum("ij,ij->i", q, p) / det
+            bv = np.einsum("ij,ij->i", d, qq) / det
+            s = np.einsum("ij,ij->i", e2, qq) / det
+        P = O[hit] + s[:, None] * d
+        n = (1 - bu - bv)[:, None] * self.vn[t[:, 0]] + bu[:, None] * self.vn[t[:, 1]] + bv[:, None] * self.vn[t[:, 2]]
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        n *= np.sign(n[:, 2:3] + 1e-300)  # upper-side normal
+        dvec = np.asarray(view.basis()[0])
+        origin = np.asarray(view.eye if view.eye is not None else view.target)
+        depth = np.full(W * H, np.nan)
+        depth[hit] = (P - origin) @ dvec
+        normal = np.full((W * H, 3), np.nan)
+        normal[hit] = n
+        return SimpleNamespace(mask=hit.reshape(H, W), depth=depth.reshape(H, W), normal=normal.reshape(H, W, 3))
+
+
+def matplotlib_plot(n: int, W: int, H: int) -> np.ndarray:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    (u0, u1), (v0, v1) = DOMAIN
+    u = np.linspace(u0, u1, n)
+    U, V = np.meshgrid(u, np.linspace(v0, v1, n))
+    fig = plt.figure(figsize=(W / 100, H / 100), dpi=100)
+    ax = fig.add_axes((0, 0, 1, 1), projection="3d")
+    ax.plot_surface(U, V, f_np(U, V), rstride=1, cstride=1, linewidth=0, antialiased=False, shade=True)
+    ax.view_init(30, -60)
+    ax.set_axis_off()
+    fig.canvas.draw()
+    a = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+    plt.close(fig)
+    return a
+
+
+def numpy_floor(W: int, H: int) -> float:
+    """NumPy float64 evaluating f, f_u, f_v once per output pixel."""
+    u = np.random.default_rng(0).uniform(-5, 5, W * H)
+    v = np.random.default_rng(1).uniform(-5, 5, W * H)
+
+    def run():
+        a = u * np.cos(v)
+        f = 3 * np.sin(a)
+        c = 3 * np.cos(a)
+        return f, c * np.cos(v), -c * u * np.sin(v)
+
+    return median_time(run, repeat=5)
+
+
+# ---------------------------------------------------------------- fcol runs
+
+VARIANTS = {
+    "column default (exact, normal)": dict(),
+    "column nis (Phong, no refine)": dict(shading="normal", refine=False),
+    "column iis (Gouraud, no refine)": dict(shading="intensity", refine=False),
+    "column iis + ridges/bumps supersample": dict(shading="intensity", refine=False, ridges=True, bumps=True, jumps=True),
+    "column nis + ridges spline": dict(shading="normal", refine=False, ridges=True, correction="spline"),
+    "column iis step 8 (seed-like)": dict(shading="intensity", refine=False, step=8.0, max_step=8.0),
+    "column iis step 8 + supersample": dict(shading="intensity", refine=False, step=8.0, max_step=8.0, ridges=True, bumps=True, jumps=True),
+}
+
+
+def run(out_dir: Path, quick: bool) -> list[dict]:
+    from fcol.testing.reference import compare, height_reference
+
+    surf = fcol.Function(EXPR, domain=DOMAIN)
+    rows: list[dict] = []
+    plot: list[tuple[str, float, float]] = []
+    W, H = 480, 477
+    repeat = 3 if quick else 7
+    floor = {(W, H): numpy_floor(W, H)}
+    rows.append(dict(method="numpy floor (f, f_u, f_v per pixel)", size=f"{W}x{H}", ms=1e3 * floor[(W, H)]))
+    for vname, view in views().items():
+        t0 = time.perf_counter()
+        ref = height_reference(f_np, grad_np, DOMAIN, view, W, H)
+        ref_s = time.perf_counter() - t0
+        rows.append(dict(method="reference (exact hit)", view=vname, size=f"{W}x{H}", ms=1e3 * ref_s))
+        base = None
+        for label, opts in VARIANTS.items():
+            outs = ("rgb", "depth", "normal", "mask")
+            img = fcol.render(surf, view, W, H, outputs=outs, **opts)
+            t = median_time(lambda: fcol.render(surf, view, W, H, outputs=outs, **opts), repeat=repeat)
+            res = compare(img, ref, view)
+            row = dict(method=label, view=vname, size=f"{W}x{H}", ms=1e3 * t, samples=img.samples,
+                       x_floor=t / floor[(W, H)], mask_bad=res.get("mask_bad"),
+                       depth_p99=res.get("depth_px_p99"), normal_med=res.get("normal_deg_median"),
+                       normal_p99=res.get("normal_deg_p99"), ssim=res.get("ssim"))
+            if base is None:
+                base = row
+                t1 = median_time(lambda: fcol.render(surf, view, W, H, outputs=outs, threads=1, **opts), repeat=repeat)
+                row["speedup_2threads"] = t1 / t
+            rows.append(row)
+            plot.append((f"fcol {label} ({vname})", t, res.get("normal_deg_p99", np.nan)))
+        # Floating horizon (lines only: time and samples).
+        img = fcol.render(surf, view, W, H, method="floating_horizon", outputs=("lines",))
+        t = median_time(lambda: fcol.render(surf, view, W, H, method="floating_horizon", outputs=("lines",)), repeat=repeat)
+        rows.append(dict(method="horizon (lines, 80 planes)", view=vname, size=f"{W}x{H}", ms=1e3 * t, samples=img.samples))
+        # The mesh approach at increasing resolution.
+        for n in ((100, 200) if quick else (50, 100, 200, 400, 800)):
+            tb0 = time.perf_counter()
+            mc = MeshCaster(n)
+            got = mc.cast(view, W, H)
+            t_new = time.perf_counter() - tb0
+            t_cast = median_time(lambda: mc.cast(view, W, H), repeat=3)
+            res = compare(got, ref, view)
+            rows.append(dict(method=f"mesh {n}x{n} (trimesh+embreex)", view=vname, size=f"{W}x{H}",
+                             ms=1e3 * t_cast, ms_with_build=1e3 * t_new, mask_bad=res.get("mask_bad"),
+                             depth_p99=res.get("depth_px_p99"), normal_med=res.get("normal_deg_median"),
+                             normal_p99=res.get("normal_deg_p99"),
+                             x_fcol=t_cast / (base["ms"] / 1e3), x_fcol_new=t_new / (base["ms"] / 1e3)))
+            plot.append((f"mesh {n}² ({vname})", t_cast, res.get("normal_deg_p99", np.nan)))
+    # matplotlib plot_surface to an array (its own camera: time only).
+    for n in (50, 100):
+        t = median_time(lambda: matplotlib_plot(n, W, H), repeat=3, min_time=0.0)
+        rows.append(dict(method=f"matplotlib plot_surface {n}x{n}", size=f"{W}x{H}", ms=1e3 * t))
+    # Scaling with image size.
+    sizes = [(W, H)] if quick else [(W, H), (960, 540), (1920, 1080)]
+    for (w, h) in sizes[1:]:
+        floor[(w, h)] = numpy_floor(w, h)
+        rows.append(dict(method="numpy floor (f, f_u, f_v per pixel)", size=f"{w}x{h}", ms=1e3 * floor[(w, h)]))
+        for vname, view in views().items():
+            for label in ("column default (exact, normal)", "column nis (Phong, no refine)"):
+                opts = VARIANTS[label]
+                img = fcol.render(surf, view, w, h, outputs=("rgb", "depth", "normal", "mask"), **opts)
+                t = median_time(lambda: fcol.render(surf, view, w, h, outputs=("rgb", "depth", "normal", "mask"), **opts), repeat=3)
+                rows.append(dict(method=label, view=vname, size=f"{w}x{h}", ms=1e3 * t, samples=img.samples,
+                                 x_floor=t / floor[(w, h)]))
+    # The seed's Table 1 sample counts beside ours (480 × 477).
+    for fig, n in SEED_SAMPLES.items():
+        rows.append(dict(method=f"seed Table 1: Fig. {fig}", size="480x477", samples=n))
+    _plot(plot, out_dir / "floating_time_vs_error.png")
+    _table(rows, out_dir / "floating.md")
+    return rows
+
+
+def _plot(points, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 6), dpi=100)
+    for label, t, e in points:
+        if not np.isfinite(e):
+            continue
+        marker = "s" if label.startswith("mesh") else "o"
+        ax.loglog(1e3 * t, max(e, 1e-4), marker, label=label)
+    ax.set_xlabel("time per view (ms), 480 × 477")
+    ax.set_ylabel("normal error, 99th percentile (degrees)")
+    ax.set_title("3 sin(u cos v): floating column vs mesh ray casting")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6, loc="best")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _table(rows, path: Path) -> None:
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else ("" if v is None else str(v))  # noqa: E731
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for r in rows:
+        lines.append("| " + " | ".join(fmt(r.get(c)) for c in cols) + " |")
+    path.write_text("\n".join(lines) + "\n")

@@ -1,0 +1,563 @@
+//! The floating column of Gordon 2001 §4.2 / A.2: every pixel column is its
+//! own front-to-back sweep along the column's curve, keeping the rows already
+//! covered (the seed's min and max; a short list of intervals once NaN holes
+//! or the domain edge break the curve) and filling each newly revealed span of
+//! rows from the two samples that bracket it.
+//!
+//! Values (depth, (u, v), normal, intensity) are stored at every sample,
+//! visible or not, and interpolated across revealed spans (§4.2). With
+//! `refine`, each revealed pixel is then solved exactly: a few Newton steps on
+//! the pixel's ray h(λ) = w_ray(λ) − f(u_ray(λ), v_ray(λ)), seeded by the
+//! interpolation, which is still "evaluate only where visible".
+
+use super::artifacts;
+use super::sampling::{Frame, Sample, Sampler};
+use super::{FloatingOptions, ShadingMode};
+use crate::camera::Camera;
+use crate::shade::Shading;
+use crate::surface::HeightField;
+use glam::{DVec2, DVec3};
+
+/// The result for one pixel of a column.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Pixel {
+    pub set: bool,
+    pub side: i8,
+    pub depth: f64,
+    pub n: DVec3,
+    pub uv: DVec2,
+    pub inten: f64,
+}
+
+/// Counters of one column.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ColumnStats {
+    pub sweep_evals: u64,
+    pub refine_evals: u64,
+    pub refine_fail: u64,
+    pub folds: u64,
+    pub walls: u64,
+    pub problems: u64,
+    pub early_exit: u64,
+    pub holes_filled: u64,
+}
+
+impl ColumnStats {
+    pub fn add(&mut self, o: &ColumnStats) {
+        self.sweep_evals += o.sweep_evals;
+        self.refine_evals += o.refine_evals;
+        self.refine_fail += o.refine_fail;
+        self.folds += o.folds;
+        self.walls += o.walls;
+        self.problems += o.problems;
+        self.early_exit += o.early_exit;
+        self.holes_filled += o.holes_filled;
+    }
+}
+
+/// Everything a column needs, shared read-only by all columns.
+pub struct Ctx<'a> {
+    pub cam: &'a Camera,
+    pub frame: Frame,
+    pub field: &'a dyn HeightField,
+    pub shading: &'a Shading,
+    pub opts: &'a FloatingOptions,
+    /// Exact per-pixel solve wanted (depth/normal/uv asked for, or normal
+    /// shading), and allowed by the options.
+    pub refine: bool,
+}
+
+/// Covered rows of a column: disjoint closed intervals, sorted.
+#[derive(Debug, Default)]
+struct Coverage {
+    iv: Vec<(f64, f64)>,
+}
+
+impl Coverage {
+    #[inline]
+    fn contains(&self, x: f64) -> bool {
+        self.iv.iter().any(|&(a, b)| x >= a && x <= b)
+    }
+    fn add(&mut self, lo: f64, hi: f64) {
+        // In place (no allocation in the common case of one interval).
+        let mut first: Option<usize> = None;
+        let mut k = 0;
+        while k < self.iv.len() {
+            let (a, b) = self.iv[k];
+            if b < lo || a > hi {
+                k += 1;
+                continue;
+            }
+            match first {
+                None => {
+                    self.iv[k] = (a.min(lo), b.max(hi));
+                    first = Some(k);
+                    k += 1;
+                }
+                Some(f) => {
+                    let (fa, fb) = self.iv[f];
+                    self.iv[f] = (fa.min(a), fb.max(b));
+                    self.iv.remove(k);
+                }
+            }
+        }
+        if first.is_none() {
+            let pos = self.iv.partition_point(|&(a, _)| a < lo);
+            self.iv.insert(pos, (lo, hi));
+        }
+    }
+    /// Distance of x inside its covered interval (0 when not covered).
+    fn depth(&self, x: f64) -> f64 {
+        self.iv
+            .iter()
+            .find(|&&(a, b)| x >= a && x <= b)
+            .map(|&(a, b)| (x - a).min(b - x))
+            .unwrap_or(0.0)
+    }
+    /// The covered interval holding x.
+    fn interval(&self, x: f64) -> Option<(f64, f64)> {
+        self.iv.iter().copied().find(|&(a, b)| x >= a && x <= b)
+    }
+    fn covers(&self, lo: f64, hi: f64) -> bool {
+        self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)
+    }
+}
+
+const MAX_STEPS: usize = 4_000_000;
+
+struct Sweep<'c, 'a> {
+    ctx: &'c Ctx<'a>,
+    sampler: Sampler<'a>,
+    col: f64,
+    cov: Coverage,
+    h: usize,
+    stats: ColumnStats,
+    jobs: Vec<super::refine::Job>,
+}
+
+/// Render one (possibly fractional) column `col` into `out` (length H).
+pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats {
+    let fr = ctx.frame;
+    let xpix = fr.xpix(col);
+    let line = fr.column(xpix);
+    let sampler = Sampler {
+        frame: &ctx.frame,
+        field: ctx.field,
+        line,
+        evals: 0,
+        folds: 0,
+        lateral_tol: 0.02,
+        d: ctx.cam.d,
+        shading: ctx.shading,
+        shade: ctx.opts.shading == ShadingMode::Intensity || ctx.opts.corrections.any_detection(),
+    };
+    let mut sw = Sweep {
+        ctx,
+        sampler,
+        col,
+        cov: Coverage::default(),
+        h: ctx.cam.height,
+        stats: ColumnStats::default(),
+        jobs: Vec::with_capacity(if ctx.refine { ctx.cam.height } else { 0 }),
+    };
+    if !fr.persp {
+        if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
+            sw.sweep(t0, 1.0, t1 - t0, out);
+        }
+    } else {
+        let (tmin, tmax) = fr.domain_t_range();
+        if tmax > 0.0 {
+            sw.sweep(tmin.max(0.0), 1.0, tmax - tmin.max(0.0), out);
+        }
+        // Rays whose horizontal direction points backwards (looking steeply
+        // down or up): a second, independent sweep from the eye backwards.
+        let hh = 0.5 * ctx.cam.height as f64;
+        let back = fr.focal * fr.d_t - hh * fr.up_t.abs() < 0.0;
+        if back && tmin < 0.0 {
+            sw.cov = Coverage::default();
+            sw.sweep(tmax.min(0.0), -1.0, tmax.min(0.0) - tmin, out);
+        }
+    }
+    if !sw.jobs.is_empty() {
+        let (failed, evals) = super::refine::solve(ctx, &sw.jobs, out);
+        sw.stats.refine_evals += evals;
+        sw.stats.refine_fail += failed.len() as u64;
+    }
+    sw.stats.sweep_evals = sw.sampler.evals;
+    sw.stats.folds = sw.sampler.folds;
+    sw.stats
+}
+
+impl<'c, 'a> Sweep<'c, 'a> {
+    #[inline]
+    fn clamp_row(&self, r: f64) -> f64 {
+        r.clamp(-2.0, self.h as f64 + 1.0)
+    }
+
+    fn valid(&self, s: &Option<Sample>) -> bool {
+        matches!(s, Some(x) if x.rho.is_finite())
+    }
+
+    fn sample(&mut self, t: f64, w_pred: f64) -> Option<Sample> {
+        let s = self.sampler.sample(t, w_pred);
+        match s {
+            Some(x) if x.rho.is_finite() && x.z.is_finite() => Some(x),
+            _ => None,
+        }
+    }
+
+    /// Prediction of w' at parameter distance dtau (signed t step) from a.
+    #[inline]
+    fn predict(a: &Sample, dt: f64) -> f64 {
+        if a.dw_dt.is_finite() {
+            let p = a.wr + a.dw_dt * dt;
+            if p.is_finite() {
+                return p;
+            }
+        }
+        a.wr
+    }
+
+    fn z_guess(&self, t: f64) -> f64 {
+        let fr = &self.ctx.frame;
+        let w = self.ctx.cam.view.target.z - fr.origin.z;
+        let z = t * fr.d_t + w * fr.d_w;
+        let d = match self.ctx.cam.view.projection {
+            crate::camera::Projection::Perspective { distance, .. } => distance,
+            _ => 1.0,
+        };
+        z.max(1e-3 * d)
+    }
+
+    /// One sweep: t = t_start + sign·τ for τ in [0, len].
+    fn sweep(&mut self, t_start: f64, sign: f64, len: f64, out: &mut [Pixel]) {
+        let opts = self.ctx.opts;
+        let fr = self.ctx.frame;
+        let step_px = opts.step;
+        let tt = |tau: f64| t_start + sign * tau;
+        let w0 = self.ctx.cam.view.target.z - fr.origin.z;
+        let mut tau = 0.0;
+        let mut prev = self.sample(tt(0.0), w0);
+        if let Some(a) = prev {
+            self.start_run(&a);
+        }
+        let mut last_w = prev.map(|a| a.wr).unwrap_or(w0);
+        // End of the current valid stretch (found by bisection), if known.
+        let mut barrier: Option<(f64, f64)> = None;
+        let mut steps = 0usize;
+        let min_frac = 1e-6;
+        while tau < len && steps < MAX_STEPS {
+            steps += 1;
+            let fp = match &prev {
+                Some(a) => fr.footprint(a.z),
+                None => fr.footprint(self.z_guess(tt(tau))),
+            };
+            let cap = opts.max_step * fp;
+            let mut h = match &prev {
+                // Deep inside the covered rows nothing can show before the
+                // curve climbs out: take the largest step (checked below).
+                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => cap,
+                Some(a) => {
+                    let r = a.drho_dt.abs();
+                    if r > 0.0 && r.is_finite() {
+                        (step_px / r).min(cap)
+                    } else {
+                        cap
+                    }
+                }
+                None => cap,
+            };
+            let limit = match barrier {
+                Some((b, _)) if prev.is_some() => b,
+                _ => len,
+            };
+            let mut halvings = 0;
+            loop {
+                let mut tau_n = tau + h;
+                if tau_n >= limit - 1e-12 * fp {
+                    tau_n = limit;
+                }
+                let hh = tau_n - tau;
+                let pred = match &prev {
+                    Some(a) => Self::predict(a, sign * hh),
+                    None => last_w,
+                };
+                let cand = self.sample(tt(tau_n), pred);
+                match (prev, cand) {
+                    (Some(a), Some(b)) => {
+                        let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
+                        let hidden = gap > step_px && self.hidden(&a, &b);
+                        if gap > step_px && !hidden && halvings < 40 && hh > min_frac * fp {
+                            // Retry at the step the gap suggests (rows vary
+                            // about linearly over a small step).
+                            h = hh * (0.9 * step_px / gap).clamp(0.05, 0.5);
+                            halvings += 1;
+                            continue;
+                        }
+                        let wall = gap > step_px && !hidden;
+                        if wall {
+                            self.stats.walls += 1;
+                        }
+                        let from = if wall { a } else { self.correct(&a, &b, out) };
+                        self.span(&from, &b, wall, out);
+                        prev = Some(b);
+                        last_w = b.wr;
+                        tau = tau_n;
+                        if let Some((bt, after)) = barrier {
+                            if tau >= bt {
+                                // End of the valid stretch: jump past it.
+                                prev = None;
+                                tau = after;
+                                barrier = None;
+                            }
+                        }
+                        break;
+                    }
+                    (Some(a), None) => {
+                        // The surface ends in (τ, τ_n): bisect for its edge.
+                        let (lo, hi) = self.bisect(tt, tau, tau_n, true, &a, sign, fp);
+                        barrier = Some((lo, hi));
+                        if lo <= tau {
+                            prev = None;
+                            tau = hi;
+                            barrier = None;
+                        }
+                        break;
+                    }
+                    (None, Some(b)) => {
+                        let (lo, hi) = self.bisect(tt, tau, tau_n, false, &b, sign, fp);
+                        let _ = lo;
+                        let first = if hi < tau_n {
+                            self.sample(tt(hi), Self::predict(&b, sign * (hi - tau_n)))
+                        } else {
+                            Some(b)
+                        };
+                        let first = first.unwrap_or(b);
+                        let tau_f = if hi < tau_n && self.valid(&Some(first)) {
+                            hi
+                        } else {
+                            tau_n
+                        };
+                        self.start_run(&first);
+                        prev = Some(first);
+                        last_w = first.wr;
+                        tau = tau_f;
+                        break;
+                    }
+                    (None, None) => {
+                        tau = tau_n;
+                        break;
+                    }
+                }
+            }
+            if self.cov.covers(-0.5, self.h as f64 - 0.5) {
+                self.stats.early_exit += 1;
+                return;
+            }
+        }
+    }
+
+    /// Does the curve stay inside the covered rows between a and b? Both
+    /// ends in one covered interval, and so the extremum of the cubic
+    /// through their rows and slopes (§5.2), with a pixel of margin.
+    fn hidden(&self, a: &Sample, b: &Sample) -> bool {
+        let (ra, rb) = (self.clamp_row(a.rho), self.clamp_row(b.rho));
+        let Some((lo, hi)) = self.cov.interval(ra) else {
+            return false;
+        };
+        let (lo, hi) = (lo + 1.0, hi - 1.0);
+        if !(ra >= lo && ra <= hi && rb >= lo && rb <= hi) {
+            return false;
+        }
+        hermite_inside(
+            a.rho,
+            b.rho,
+            a.drho_dt * (b.t - a.t),
+            b.drho_dt * (b.t - a.t),
+            lo,
+            hi,
+        )
+    }
+
+    /// Bisection on validity between τ_a and τ_b (one valid, one not).
+    /// Returns (last valid τ, first invalid τ) when `valid_first`, else
+    /// (last invalid τ, first valid τ).
+    #[allow(clippy::too_many_arguments)]
+    fn bisect(
+        &mut self,
+        tt: impl Fn(f64) -> f64,
+        ta: f64,
+        tb: f64,
+        valid_first: bool,
+        known: &Sample,
+        sign: f64,
+        fp: f64,
+    ) -> (f64, f64) {
+        let (mut lo, mut hi) = (ta, tb);
+        let tol = 1e-3 * fp;
+        let mut it = 0;
+        while hi - lo > tol && it < 60 {
+            it += 1;
+            let mid = 0.5 * (lo + hi);
+            let kt = if valid_first { ta } else { tb };
+            let pred = Self::predict(known, sign * (mid - kt));
+            let ok = self.sample(tt(mid), pred).is_some();
+            if ok == valid_first {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        (lo, hi)
+    }
+
+    fn start_run(&mut self, a: &Sample) {
+        let r = self.clamp_row(a.rho);
+        if !self.cov.contains(r) {
+            self.cov.add(r, r);
+        }
+    }
+
+    /// §5 problem detection and correction between consecutive samples a and
+    /// b: extra samples are inserted (and their spans drawn); returns the
+    /// sample the caller's last span (to b) starts from.
+    fn correct(&mut self, a: &Sample, b: &Sample, out: &mut [Pixel]) -> Sample {
+        let c = self.ctx.opts.corrections;
+        if !c.any_detection() {
+            return *a;
+        }
+        let m = self.ctx.frame.plane_normal(self.ctx.cam, self.col);
+        let Some(problem) = artifacts::detect(&c, a, b, m) else {
+            return *a;
+        };
+        self.stats.problems += 1;
+        let inserted: Vec<f64> = if c.spline {
+            artifacts::spline_top(problem, a, b, m)
+                .into_iter()
+                .collect()
+        } else {
+            let n = c.rate.max(2);
+            (1..n)
+                .map(|k| a.t + (b.t - a.t) * k as f64 / n as f64)
+                .collect()
+        };
+        let mut prev = *a;
+        for t in inserted {
+            let pred = Self::predict(&prev, t - prev.t);
+            if let Some(mid) = self.sample(t, pred) {
+                self.span(&prev, &mid, false, out);
+                prev = mid;
+            }
+        }
+        prev
+    }
+
+    /// Fill the rows newly revealed between samples a and b.
+    fn span(&mut self, a: &Sample, b: &Sample, wall: bool, out: &mut [Pixel]) {
+        let ra = self.clamp_row(a.rho);
+        let rb = self.clamp_row(b.rho);
+        let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+        let i0 = lo.ceil().max(0.0) as i64;
+        let i1 = hi.floor().min(self.h as f64 - 1.0) as i64;
+        if i0 <= i1 {
+            let upward = b.rho < a.rho;
+            let fr = &self.ctx.frame;
+            let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };
+            for i in i0..=i1 {
+                let x = i as f64;
+                if self.cov.contains(x) {
+                    continue;
+                }
+                out[i as usize] = self.pixel(a, b, i as usize, topo, wall);
+            }
+        }
+        self.cov.add(lo, hi);
+    }
+
+    fn pixel(&mut self, a: &Sample, b: &Sample, i: usize, topo: i8, wall: bool) -> Pixel {
+        let fr = self.ctx.frame;
+        let row = i as f64;
+        let dr = b.rho - a.rho;
+        let tau = if dr != 0.0 {
+            ((row - a.rho) / dr).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        // Perspective-correct weights (1/z is linear on the screen).
+        let (z, wb) = if fr.persp {
+            let iz = (1.0 - tau) / a.z + tau / b.z;
+            (1.0 / iz, tau / b.z / iz)
+        } else {
+            (a.z + tau * (b.z - a.z), tau)
+        };
+        let uv = a.uv.lerp(b.uv, wb);
+        let n = a.n.lerp(b.n, wb).normalize_or(a.n);
+        let inten = a.inten + wb * (b.inten - a.inten);
+        let mut px = Pixel {
+            set: true,
+            side: topo,
+            depth: z,
+            n,
+            uv,
+            inten,
+        };
+        let (o, dir) = self.ctx.cam.ray(row, self.col);
+        if self.ctx.refine && !wall {
+            // Solved later, batched with the column's other pixels.
+            let fr = self.ctx.frame;
+            let dd = dir.dot(self.ctx.cam.d);
+            if dd > 0.0 {
+                let to_lam = |z: f64| if fr.persp { z / dd } else { z };
+                let fp = fr.footprint(z);
+                let span = (to_lam(a.z) - to_lam(b.z)).abs();
+                self.jobs.push(super::refine::Job {
+                    slot: i,
+                    o,
+                    dir,
+                    lam: to_lam(z),
+                    lo: to_lam(a.z).min(to_lam(b.z)) - 2.0 * fp - span,
+                    hi: to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span,
+                    fp,
+                });
+            }
+        }
+        if wall && self.ctx.opts.corrections.walls {
+            // §5.1: a wall is not sampled; shade it as the vertical face it
+            // is (normal horizontal, along the column's plane towards the
+            // viewer) rather than smearing the two sides' values.
+            let fr = &self.ctx.frame;
+            let e = DVec3::new(fr.eh.x, fr.eh.y, 0.0);
+            let wn = if b.wr > a.wr { -e } else { e };
+            let toward = -dir;
+            px.inten = self.ctx.shading.intensity(wn, toward);
+            px.n = n;
+            return px;
+        }
+        if self.ctx.opts.shading == ShadingMode::Normal {
+            px.inten = self.ctx.shading.intensity(px.n, -dir);
+        }
+        px
+    }
+}
+
+/// Does the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1 stay
+/// within [lo, hi]? (Its extrema in (0, 1) checked.)
+pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f64) -> bool {
+    if !(m0.is_finite() && m1.is_finite()) {
+        return false;
+    }
+    let a = 2.0 * (p0 - p1) + m0 + m1;
+    let b = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
+    let c = m0;
+    let p = |x: f64| ((a * x + b) * x + c) * x + p0;
+    let ok = |x: f64| !(x > 0.0 && x < 1.0) || (p(x) >= lo && p(x) <= hi);
+    if a.abs() < 1e-300 {
+        return b == 0.0 || ok(-c / (2.0 * b));
+    }
+    let disc = b * b - 3.0 * a * c;
+    if disc < 0.0 {
+        return true;
+    }
+    let sq = disc.sqrt();
+    ok((-b + sq) / (3.0 * a)) && ok((-b - sq) / (3.0 * a))
+}

@@ -1,0 +1,316 @@
+//! Function surfaces w = f(u, v) without patches (Gordon 2001): the modified
+//! floating horizon (§4.1, A.1: a line drawing) and the floating column
+//! (§4.2, A.2: shaded, every pixel column independent).
+//!
+//! The sampling geometry (§3, derived for the SPEC §1 camera) is in
+//! [`sampling`]; the orthographic column sweep in [`column`]; the
+//! perspective sweep, run in vertical planes through the eye so that every
+//! section is a graph and the sweep stays exact, in [`radial`]; the batched
+//! exact per-pixel solve in [`refine`]; the §5 artifact tests and
+//! corrections in [`artifacts`]; the line drawing in [`horizon`].
+
+pub mod artifacts;
+pub mod column;
+pub mod horizon;
+pub mod radial;
+pub mod refine;
+pub mod sampling;
+
+use crate::camera::{Camera, View};
+use crate::cancel::Cancel;
+use crate::error::{FcolError, Result};
+use crate::image::{Buffers, Outputs};
+use crate::shade::Shading;
+use crate::surface::HeightField;
+pub use artifacts::Corrections;
+use column::{ColumnStats, Ctx, Pixel};
+use rayon::prelude::*;
+
+/// What is interpolated across a revealed span (§4.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShadingMode {
+    /// Intensity interpolation ("Gouraud", the seed's `iis`).
+    Intensity,
+    /// Normal interpolation ("Phong", the seed's `nis`), with specular.
+    Normal,
+}
+
+/// Options of both renderers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FloatingOptions {
+    pub shading: ShadingMode,
+    /// Solve each revealed pixel exactly on its ray (depth, normal, uv).
+    pub refine: bool,
+    /// Largest row gap between consecutive samples, in pixels (the sample
+    /// step adapts to the projected step; ≤ 1 by default).
+    pub step: f64,
+    /// Largest step along a column's curve, in lateral pixel footprints.
+    pub max_step: f64,
+    /// Newton stops when its step is below `refine_tol` pixels.
+    pub refine_tol: f64,
+    pub refine_iters: usize,
+    pub corrections: Corrections,
+    /// Column supersampling factor for `rgb` and `intensity` (§6.4).
+    pub antialias: usize,
+    /// Floating horizon: number of sampling planes (lines).
+    pub planes: usize,
+    /// Worker threads (None: rayon's default pool).
+    pub threads: Option<usize>,
+}
+
+impl Default for FloatingOptions {
+    fn default() -> Self {
+        FloatingOptions {
+            shading: ShadingMode::Normal,
+            refine: true,
+            step: 1.0,
+            max_step: 2.0,
+            refine_tol: 1e-3,
+            refine_iters: 8,
+            corrections: Corrections::default(),
+            antialias: 1,
+            planes: 80,
+            threads: None,
+        }
+    }
+}
+
+impl FloatingOptions {
+    pub fn validate(&self) -> Result<()> {
+        let pos = |name: &str, x: f64| -> Result<()> {
+            if x.is_finite() && x > 0.0 {
+                Ok(())
+            } else {
+                Err(FcolError::value(
+                    name,
+                    format!("must be a positive finite number, got {x}"),
+                ))
+            }
+        };
+        pos("step", self.step)?;
+        pos("max_step", self.max_step)?;
+        pos("refine_tol", self.refine_tol)?;
+        pos("threshold", self.corrections.threshold)?;
+        if self.refine_iters == 0 || self.refine_iters > 100 {
+            return Err(FcolError::value("refine_iters", "must be in 1..=100"));
+        }
+        if self.corrections.rate < 2 || self.corrections.rate > 256 {
+            return Err(FcolError::value("rate", "must be in 2..=256"));
+        }
+        if self.antialias == 0 || self.antialias > 16 {
+            return Err(FcolError::value("antialias", "must be in 1..=16"));
+        }
+        if self.planes < 2 || self.planes > 100_000 {
+            return Err(FcolError::value("planes", "must be in 2..=100000"));
+        }
+        if let Some(t) = self.threads {
+            if t == 0 || t > 1024 {
+                return Err(FcolError::value("threads", "must be in 1..=1024"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Run `f` on a pool of `threads` workers (or rayon's global pool).
+pub(crate) fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> Result<T> {
+    match threads {
+        None => Ok(f()),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map(|p| p.install(f))
+            .map_err(|e| FcolError::value("threads", e.to_string())),
+    }
+}
+
+type ColumnResult = Result<(Vec<Pixel>, Vec<[f64; 4]>, ColumnStats)>;
+
+/// Render w = f(u, v) by the floating column (§4.2, A.2).
+#[allow(clippy::too_many_arguments)]
+pub fn render_floating_column(
+    field: &dyn HeightField,
+    view: &View,
+    width: usize,
+    height: usize,
+    outputs: &Outputs,
+    shading: &Shading,
+    opts: &FloatingOptions,
+    cancel: &Cancel,
+) -> Result<Buffers> {
+    opts.validate()?;
+    shading.validate()?;
+    if outputs.lines {
+        return Err(FcolError::value(
+            "outputs",
+            "the \"lines\" buffer belongs to method=\"floating_horizon\"",
+        ));
+    }
+    let cam = Camera::new(view, width, height)?;
+    if cam.perspective && opts.antialias > 1 {
+        return Err(FcolError::value(
+            "antialias",
+            "column supersampling applies to orthographic views; render a larger perspective image and downsample",
+        ));
+    }
+    let frame = sampling::Frame::new(&cam, field.domain());
+    let refine = opts.refine
+        && (outputs.depth
+            || outputs.normal
+            || outputs.uv
+            || outputs.side
+            || (outputs.needs_shading() && opts.shading == ShadingMode::Normal));
+    let ctx = Ctx {
+        cam: &cam,
+        frame,
+        field,
+        shading,
+        opts,
+        refine,
+    };
+    let mut buf = Buffers::new(width, height, outputs, shading.background);
+    let aa = opts.antialias;
+    let shade_aa = aa > 1 && outputs.needs_shading();
+    let geom = outputs.depth || outputs.normal || outputs.uv || outputs.side || outputs.mask;
+    let mut total = ColumnStats::default();
+    if cam.perspective {
+        let (px, st) = with_threads(opts.threads, || radial::render_radial(&ctx, cancel))??;
+        total = st;
+        write_rows(&mut buf, &px, shading);
+    } else {
+        with_threads(opts.threads, || -> Result<()> {
+            // Columns in chunks so that only a few columns' results are in memory.
+            let chunk = 256usize;
+            let mut j0 = 0;
+            while j0 < width {
+                cancel.check()?;
+                let j1 = (j0 + chunk).min(width);
+                let cols: Vec<ColumnResult> = (j0..j1)
+                    .into_par_iter()
+                    .map(|j| {
+                        cancel.check()?;
+                        let mut st = ColumnStats::default();
+                        let mut centre = vec![Pixel::default(); height];
+                        // Shading accumulated over sub-columns: (r, g, b, I).
+                        let mut acc = Vec::new();
+                        if shade_aa {
+                            acc = vec![[0.0; 4]; height];
+                            let mut sub = vec![Pixel::default(); height];
+                            for m in 0..aa {
+                                let off = (m as f64 + 0.5) / aa as f64 - 0.5;
+                                sub.iter_mut().for_each(|p| *p = Pixel::default());
+                                st.add(&column::render_column(&ctx, j as f64 + off, &mut sub));
+                                for (a, p) in acc.iter_mut().zip(&sub) {
+                                    let c = if p.set {
+                                        let c = shading.colour(p.inten, p.side);
+                                        [c[0] as f64, c[1] as f64, c[2] as f64, p.inten]
+                                    } else {
+                                        let b = shading.background;
+                                        [b[0] as f64, b[1] as f64, b[2] as f64, f64::NAN]
+                                    };
+                                    for k in 0..3 {
+                                        a[k] += c[k] / aa as f64;
+                                    }
+                                    if c[3].is_finite() {
+                                        a[3] += c[3] / aa as f64;
+                                    }
+                                }
+                            }
+                        }
+                        if !shade_aa || geom {
+                            st.add(&column::render_column(&ctx, j as f64, &mut centre));
+                        }
+                        Ok((centre, acc, st))
+                    })
+                    .collect();
+                let mut done = Vec::with_capacity(cols.len());
+                for r in cols {
+                    let (px, acc, st) = r?;
+                    total.add(&st);
+                    done.push((px, acc));
+                }
+                // Row by row, so that the writes into the row-major buffers
+                // are contiguous.
+                for i in 0..height {
+                    for (k, (px, acc)) in done.iter().enumerate() {
+                        let a = if shade_aa { Some(acc[i]) } else { None };
+                        write_pixel(&mut buf, i * width + j0 + k, &px[i], a, shading);
+                    }
+                }
+                j0 = j1;
+            }
+            Ok(())
+        })??;
+    }
+    buf.samples = total.sweep_evals + total.refine_evals;
+    buf.stat("sweep_samples", total.sweep_evals as f64);
+    buf.stat("refine_evals", total.refine_evals as f64);
+    buf.stat("refine_failures", total.refine_fail as f64);
+    buf.stat("walls", total.walls as f64);
+    buf.stat("problems", total.problems as f64);
+    buf.stat("early_exits", total.early_exit as f64);
+    buf.stat("holes_filled", total.holes_filled as f64);
+    Ok(buf)
+}
+
+fn write_rows(buf: &mut Buffers, px: &[Pixel], shading: &Shading) {
+    for (k, p) in px.iter().enumerate() {
+        write_pixel(buf, k, p, None, shading);
+    }
+}
+
+/// Write pixel k (row-major index); `acc` is the supersampled colour and
+/// intensity when column supersampling is on.
+#[inline]
+fn write_pixel(buf: &mut Buffers, k: usize, p: &Pixel, acc: Option<[f64; 4]>, shading: &Shading) {
+    if let Some(a) = acc {
+        if let Some(rgb) = buf.rgb.as_mut() {
+            for c in 0..3 {
+                rgb[3 * k + c] = a[c].round().clamp(0.0, 255.0) as u8;
+            }
+        }
+        if let Some(v) = buf.intensity.as_mut() {
+            if a[3] != 0.0 || p.set {
+                v[k] = a[3] as f32;
+            }
+        }
+    }
+    if !p.set {
+        return;
+    }
+    if acc.is_none() {
+        if let Some(rgb) = buf.rgb.as_mut() {
+            let c = shading.colour(p.inten, p.side);
+            rgb[3 * k..3 * k + 3].copy_from_slice(&c);
+        }
+        if let Some(v) = buf.intensity.as_mut() {
+            v[k] = p.inten as f32;
+        }
+    }
+    if let Some(v) = buf.depth.as_mut() {
+        v[k] = p.depth as f32;
+    }
+    if let Some(v) = buf.normal.as_mut() {
+        v[3 * k] = p.n.x as f32;
+        v[3 * k + 1] = p.n.y as f32;
+        v[3 * k + 2] = p.n.z as f32;
+    }
+    if let Some(v) = buf.uv.as_mut() {
+        v[2 * k] = p.uv.x as f32;
+        v[2 * k + 1] = p.uv.y as f32;
+    }
+    if let Some(v) = buf.side.as_mut() {
+        v[k] = p.side;
+    }
+    if let Some(v) = buf.mask.as_mut() {
+        v[k] = true;
+    }
+}
+
+pub use horizon::render_floating_horizon;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,669 @@
+//! Perspective floating column on vertical planes through the eye.
+//!
+//! A pixel column of a perspective camera is a plane through the eye that is
+//! vertical only for α = 0 or the centre column (§3.3). Its section with a
+//! height field is then not a graph over the sampling parameter: where the
+//! plane is tangent to the surface (1 − κ f_s = 0 in [`super::sampling`]) the
+//! section folds, and sheets the t-sweep does not follow are missed. The seed
+//! sidesteps this by sampling the plane's trace on w = 0 (eq. 9), which puts
+//! samples off the column by up to x_pix·w·sin α / z pixels.
+//!
+//! Here every sweep runs in a vertical plane through the eye, whose screen
+//! image is a line through the vanishing point of the verticals (the
+//! "columns" of a perspective view converge there). A vertical plane cuts a
+//! height field in a graph w(ρ) over the horizontal distance ρ from the eye,
+//! and along every ray in the plane ρ increases, so the §4.2 sweep (front to
+//! back, covered elevation angles θ = atan2(w − E_w, ρ) instead of rows) is
+//! exact. Pixels are grouped by the azimuth φ of their ray into bins narrow
+//! enough that a pixel lies within half a pixel of its bin's plane; each pixel
+//! takes its span from its bin's sweep (by its own θ) and, with `refine`, is
+//! solved on its own ray.
+
+use super::artifacts;
+use super::column::{ColumnStats, Ctx, Pixel};
+use super::sampling::Sample;
+use super::ShadingMode;
+use crate::cancel::Cancel;
+use crate::error::Result;
+use crate::surface::HeightSample;
+use glam::{DVec2, DVec3};
+use rayon::prelude::*;
+
+type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
+
+/// One pixel's ray in the radial frame: pixel index and elevation θ.
+#[derive(Debug, Clone, Copy)]
+struct Ray {
+    k: u32,
+    theta: f64,
+}
+
+/// Render all pixels of a perspective view (row-major pixel results) and
+/// the counters.
+pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, ColumnStats)> {
+    use std::f64::consts::PI;
+    let cam = ctx.cam;
+    let (w, h) = (cam.width, cam.height);
+    let e = cam.eye;
+    // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
+    // largest far from the vanishing point of the verticals, on the border.
+    let mut sens: f64 = 1.0;
+    let delta: f64 = 1e-6;
+    let mut probe = |i: usize, j: usize| {
+        let (_, dir) = cam.ray(i as f64, j as f64);
+        if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
+            let (s, c) = delta.sin_cos();
+            let d2 = DVec3::new(c * dir.x - s * dir.y, s * dir.x + c * dir.y, dir.z);
+            let p1 = cam.to_screen(e + dir);
+            let p2 = cam.to_screen(e + d2);
+            let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
+            if ds.is_finite() {
+                sens = sens.max(ds);
+            }
+        }
+    };
+    for j in 0..w {
+        probe(0, j);
+        probe(h - 1, j);
+    }
+    for i in 0..h {
+        probe(i, 0);
+        probe(i, w - 1);
+    }
+    for i in (0..h).step_by(8) {
+        for j in (0..w).step_by(8) {
+            probe(i, j);
+        }
+    }
+    // Bins of width ≤ 1 px laterally at the most sensitive pixel.
+    let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
+    let bin_of = |dir: DVec3| -> usize {
+        let x = (dir.y.atan2(dir.x) + PI) / (2.0 * PI);
+        ((x * nb as f64) as usize).min(nb - 1)
+    };
+    // Bin and elevation of every pixel (rows in parallel), then a counting
+    // sort by bin.
+    let per_px: Vec<(u32, f64)> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            (0..w).map(move |j| {
+                let (_, dir) = cam.ray(i as f64, j as f64);
+                let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
+                (bin_of(dir) as u32, dir.z.atan2(hl))
+            })
+        })
+        .collect();
+    let mut start = vec![0usize; nb + 1];
+    for &(b, _) in &per_px {
+        start[b as usize + 1] += 1;
+    }
+    for b in 0..nb {
+        start[b + 1] += start[b];
+    }
+    let mut fill = start.clone();
+    let mut rays = vec![Ray { k: 0, theta: 0.0 }; w * h];
+    for (k, &(b, th)) in per_px.iter().enumerate() {
+        let b = b as usize;
+        rays[fill[b]] = Ray {
+            k: k as u32,
+            theta: th,
+        };
+        fill[b] += 1;
+    }
+    drop(per_px);
+    let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
+    let results: Vec<Result<BinResult>> = groups
+        .par_iter()
+        .map(|&b| {
+            cancel.check()?;
+            let mut bin: Vec<Ray> = rays[start[b]..start[b + 1]].to_vec();
+            bin.sort_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
+            let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+            let mut sw = RadialSweep::new(ctx, phi, &bin);
+            sw.run();
+            sw.solve();
+            Ok((sw.out, sw.stats))
+        })
+        .collect();
+    let mut pixels = vec![Pixel::default(); w * h];
+    let mut stats = ColumnStats::default();
+    for r in results {
+        let (px, st) = r?;
+        stats.add(&st);
+        for (k, p) in px {
+            pixels[k] = p;
+        }
+    }
+    fill_holes(ctx, &mut pixels, &mut stats);
+    Ok((pixels, stats))
+}
+
+/// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
+/// that plane can pass through a notch (next to a crest) that the pixel's
+/// own ray does not. Unrevealed pixels between two revealed neighbours
+/// (above and below, or left and right) at similar depths are searched on
+/// their own ray, between the neighbours' hits.
+fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
+    let cam = ctx.cam;
+    let (w, h) = (cam.width, cam.height);
+    let mut sw = RadialSweep::new(ctx, 0.0, &[]);
+    let lam_of = |p: &Pixel, dir: DVec3| -> Option<f64> {
+        let dd = dir.dot(cam.d);
+        (p.set && dd > 0.0 && p.depth.is_finite()).then(|| p.depth / dd)
+    };
+    for i in 0..h {
+        for j in 0..w {
+            if px[i * w + j].set {
+                continue;
+            }
+            let (_, dir) = cam.ray(i as f64, j as f64);
+            let pairs = [
+                (i > 0 && i + 1 < h).then(|| ((i - 1) * w + j, (i + 1) * w + j)),
+                (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
+            ];
+            for (a, b) in pairs.into_iter().flatten() {
+                let (Some(l1), Some(l2)) = (lam_of(&px[a], dir), lam_of(&px[b], dir)) else {
+                    continue;
+                };
+                let fp = l1.min(l2).max(cam.near) / cam.focal;
+                if (l1 - l2).abs() > 64.0 * fp {
+                    continue;
+                }
+                let (lo, hi) = (l1.min(l2) - 8.0 * fp, l1.max(l2) + 8.0 * fp);
+                let hit = sw
+                    .march(dir, lo, hi, fp, 1)
+                    .or_else(|| sw.march(dir, lo, hi, fp, -1));
+                if let Some((l, hs)) = hit {
+                    let q = cam.eye + l * dir;
+                    let mut p = Pixel {
+                        set: true,
+                        side: 1,
+                        depth: (q - cam.eye).dot(cam.d),
+                        n: hs.normal(),
+                        uv: DVec2::new(q.x, q.y),
+                        inten: 0.0,
+                    };
+                    let depth = p.depth;
+                    super::refine::finish(ctx, &mut p, dir, depth, DVec2::new(q.x, q.y), &hs);
+                    if ctx.opts.shading == ShadingMode::Intensity {
+                        p.inten = ctx.shading.intensity(p.n, -dir);
+                    }
+                    px[i * w + j] = p;
+                    stats.holes_filled += 1;
+                    break;
+                }
+            }
+        }
+    }
+    stats.refine_evals += sw.stats.refine_evals;
+}
+
+struct RadialSweep<'c, 'a> {
+    ctx: &'c Ctx<'a>,
+    eh: DVec2,
+    /// The bin's rays, sorted by θ.
+    rays: &'c [Ray],
+    done: Vec<bool>,
+    /// Covered θ intervals.
+    cov: Vec<(f64, f64)>,
+    out: Vec<(usize, Pixel)>,
+    stats: ColumnStats,
+    jobs: Vec<super::refine::Job>,
+    /// Seen side of each job (for the march fallback).
+    job_side: Vec<i8>,
+    /// Screen pixels per radian of θ (conservative).
+    ppr: f64,
+}
+
+impl<'c, 'a> RadialSweep<'c, 'a> {
+    fn new(ctx: &'c Ctx<'a>, phi: f64, rays: &'c [Ray]) -> Self {
+        RadialSweep {
+            ctx,
+            eh: DVec2::new(phi.cos(), phi.sin()),
+            rays,
+            done: vec![false; rays.len()],
+            cov: Vec::new(),
+            out: Vec::new(),
+            stats: ColumnStats::default(),
+            jobs: Vec::new(),
+            job_side: Vec::new(),
+            ppr: 1.5 * ctx.cam.focal,
+        }
+    }
+
+    fn depth(&self, x: f64) -> f64 {
+        self.cov
+            .iter()
+            .find(|&&(a, b)| x >= a && x <= b)
+            .map(|&(a, b)| (x - a).min(b - x))
+            .unwrap_or(0.0)
+    }
+
+    fn hidden(&self, a: &Sample, b: &Sample) -> bool {
+        let Some((lo, hi)) = self
+            .cov
+            .iter()
+            .copied()
+            .find(|&(l, h)| a.rho >= l && a.rho <= h)
+        else {
+            return false;
+        };
+        let (lo, hi) = (lo + 1.0, hi - 1.0);
+        if !(a.rho >= lo && a.rho <= hi && b.rho >= lo && b.rho <= hi) {
+            return false;
+        }
+        let dt = b.t - a.t;
+        super::column::hermite_inside(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt, lo, hi)
+    }
+
+    fn covered(&self, x: f64) -> bool {
+        self.cov.iter().any(|&(a, b)| x >= a && x <= b)
+    }
+
+    fn add(&mut self, lo: f64, hi: f64) {
+        // In place (no allocation in the common case of one interval).
+        let mut first: Option<usize> = None;
+        let mut k = 0;
+        while k < self.cov.len() {
+            let (a, b) = self.cov[k];
+            if b < lo || a > hi {
+                k += 1;
+                continue;
+            }
+            match first {
+                None => {
+                    self.cov[k] = (a.min(lo), b.max(hi));
+                    first = Some(k);
+                    k += 1;
+                }
+                Some(f) => {
+                    let (fa, fb) = self.cov[f];
+                    self.cov[f] = (fa.min(a), fb.max(b));
+                    self.cov.remove(k);
+                }
+            }
+        }
+        if first.is_none() {
+            let pos = self.cov.partition_point(|&(a, _)| a < lo);
+            self.cov.insert(pos, (lo, hi));
+        }
+    }
+
+    /// The surface sample at horizontal distance ρ (None: hole).
+    fn sample(&mut self, rho: f64) -> Option<Sample> {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let uv = DVec2::new(e.x, e.y) + rho * self.eh;
+        let d = ctx.frame.domain;
+        let uv = DVec2::new(uv.x.clamp(d.u0, d.u1), uv.y.clamp(d.v0, d.v1));
+        self.stats.sweep_evals += 1;
+        let hs = ctx.field.eval(uv.x, uv.y);
+        if !hs.is_finite() {
+            return None;
+        }
+        Some(self.finish(rho, uv, hs))
+    }
+
+    fn finish(&self, rho: f64, uv: DVec2, hs: HeightSample) -> Sample {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let wr = hs.f - e.z;
+        let theta = wr.atan2(rho);
+        let f_rho = hs.fu * self.eh.x + hs.fv * self.eh.y;
+        // dθ/dρ = (ρ f_ρ − w') / (ρ² + w'²).
+        let dth = (rho * f_rho - wr) / (rho * rho + wr * wr).max(1e-300);
+        let p = DVec3::new(uv.x, uv.y, hs.f);
+        let n = hs.normal();
+        let shade =
+            ctx.opts.shading == ShadingMode::Intensity || ctx.opts.corrections.any_detection();
+        let (ldotn, inten, lxn) = if shade {
+            let to_eye = (e - p).normalize_or(-ctx.cam.d);
+            (
+                to_eye.dot(n),
+                ctx.shading.intensity(n, to_eye),
+                to_eye.cross(n),
+            )
+        } else {
+            (0.0, 0.0, DVec3::ZERO)
+        };
+        Sample {
+            t: rho,
+            s: 0.0,
+            wr,
+            uv,
+            h: hs,
+            n,
+            rho: self.ppr * theta,
+            z: (p - e).dot(ctx.cam.d),
+            drho_dt: self.ppr * dth,
+            dw_dt: f_rho,
+            inten,
+            ldotn,
+            lxn,
+            fold: false,
+        }
+    }
+
+    fn run(&mut self) {
+        let ctx = self.ctx;
+        let opts = ctx.opts;
+        let e = ctx.cam.eye;
+        if self.rays.is_empty() {
+            return;
+        }
+        let (th_lo, th_hi) = (
+            self.rays[0].theta * self.ppr,
+            self.rays[self.rays.len() - 1].theta * self.ppr,
+        );
+        // Domain clip of the half-line E_h + ρ·e_h, ρ ≥ 0.
+        let d = ctx.frame.domain;
+        let (mut r0, mut r1) = (0.0f64, f64::INFINITY);
+        for (oc, dc, a, b) in [(e.x, self.eh.x, d.u0, d.u1), (e.y, self.eh.y, d.v0, d.v1)] {
+            if dc.abs() < 1e-15 {
+                if oc < a || oc > b {
+                    return;
+                }
+            } else {
+                let (p, q) = ((a - oc) / dc, (b - oc) / dc);
+                r0 = r0.max(p.min(q));
+                r1 = r1.min(p.max(q));
+            }
+        }
+        if r0 >= r1 || r0.is_nan() || r1.is_nan() {
+            return;
+        }
+        let scale = (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
+        let r0 = r0.max(1e-9 * scale);
+        let fp_at = |s: &Sample| {
+            ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / ctx.cam.focal
+        };
+        let mut prev = self.sample(r0);
+        let mut rho = r0;
+        if let Some(a) = prev {
+            self.add(a.rho, a.rho);
+        }
+        let mut steps = 0usize;
+        while rho < r1 && steps < 4_000_000 {
+            steps += 1;
+            let (cap, mut hstep) = match &prev {
+                Some(a) => {
+                    let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
+                    let r = a.drho_dt.abs();
+                    let deep = self.depth(a.rho) > 2.0 * opts.step;
+                    let hs = if !deep && r > 0.0 && r.is_finite() {
+                        (opts.step / r).min(cap)
+                    } else {
+                        cap
+                    };
+                    (cap, hs)
+                }
+                None => {
+                    let cap = opts.max_step * (rho.max(1e-9 * scale)) / ctx.cam.focal;
+                    (cap, cap)
+                }
+            };
+            let _ = cap;
+            let mut halvings = 0;
+            loop {
+                let mut rn = rho + hstep;
+                if rn > r1 {
+                    rn = r1;
+                }
+                let cand = self.sample(rn);
+                match (prev, cand) {
+                    (Some(a), Some(b)) => {
+                        let gap = (b.rho - a.rho).abs();
+                        let hidden = gap > opts.step && self.hidden(&a, &b);
+                        if gap > opts.step
+                            && !hidden
+                            && halvings < 40
+                            && (rn - rho) > 1e-9 * fp_at(&a)
+                        {
+                            hstep = (rn - rho) * (0.9 * opts.step / gap).clamp(0.05, 0.5);
+                            halvings += 1;
+                            continue;
+                        }
+                        let wall = gap > opts.step && !hidden;
+                        if wall {
+                            self.stats.walls += 1;
+                        }
+                        let from = if wall { a } else { self.correct(&a, &b) };
+                        self.span(&from, &b, wall);
+                        prev = Some(b);
+                    }
+                    (None, Some(b)) => {
+                        self.add(b.rho, b.rho);
+                        prev = Some(b);
+                    }
+                    (_, None) => prev = None,
+                }
+                rho = rn;
+                break;
+            }
+            // Early exit (§4.2): every ray of the bin is covered.
+            if self.cov.iter().any(|&(a, b)| a <= th_lo && b >= th_hi) {
+                self.stats.early_exit += 1;
+                break;
+            }
+        }
+    }
+
+    /// The batched exact solve of the bin's pixels, with a march along the
+    /// ray for those Newton could not settle (the pixel's ray is up to half
+    /// a pixel off the bin's plane, so its seed can be poor at grazing).
+    fn solve(&mut self) {
+        if self.jobs.is_empty() {
+            return;
+        }
+        let mut px: Vec<Pixel> = self.out.iter().map(|(_, p)| *p).collect();
+        let jobs = std::mem::take(&mut self.jobs);
+        let (failed, evals) = super::refine::solve(self.ctx, &jobs, &mut px);
+        self.stats.refine_evals += evals;
+        for slot in failed {
+            let k = jobs.partition_point(|j| j.slot < slot);
+            let j = jobs[k];
+            let side = self.job_side[k];
+            match self.march(j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, side) {
+                Some((lam, hs)) => {
+                    let q = j.o + lam * j.dir;
+                    let depth = (q - j.o).dot(self.ctx.cam.d);
+                    super::refine::finish(
+                        self.ctx,
+                        &mut px[slot],
+                        j.dir,
+                        depth,
+                        DVec2::new(q.x, q.y),
+                        &hs,
+                    );
+                }
+                None => self.stats.refine_fail += 1,
+            }
+        }
+        for (o, p) in self.out.iter_mut().zip(px) {
+            o.1 = p;
+        }
+    }
+
+    fn correct(&mut self, a: &Sample, b: &Sample) -> Sample {
+        let c = self.ctx.opts.corrections;
+        if !c.any_detection() {
+            return *a;
+        }
+        let m = DVec3::new(-self.eh.y, self.eh.x, 0.0);
+        let Some(problem) = artifacts::detect(&c, a, b, m) else {
+            return *a;
+        };
+        self.stats.problems += 1;
+        let inserted: Vec<f64> = if c.spline {
+            artifacts::spline_top(problem, a, b, m)
+                .into_iter()
+                .collect()
+        } else {
+            let n = c.rate.max(2);
+            (1..n)
+                .map(|k| a.t + (b.t - a.t) * k as f64 / n as f64)
+                .collect()
+        };
+        let mut prev = *a;
+        for t in inserted {
+            if let Some(mid) = self.sample(t) {
+                self.span(&prev, &mid, false);
+                prev = mid;
+            }
+        }
+        prev
+    }
+
+    fn span(&mut self, a: &Sample, b: &Sample, wall: bool) {
+        let (lo, hi) = if a.rho <= b.rho {
+            (a.rho, b.rho)
+        } else {
+            (b.rho, a.rho)
+        };
+        // Rays of the bin with θ in [lo, hi] (sorted by θ).
+        let start = self.rays.partition_point(|r| r.theta * self.ppr < lo);
+        let mut k = start;
+        while k < self.rays.len() && self.rays[k].theta * self.ppr <= hi {
+            let th = self.rays[k].theta * self.ppr;
+            if !self.done[k] && !self.covered(th) {
+                self.done[k] = true;
+                let ray = self.rays[k];
+                let w = self.ctx.cam.width;
+                let (i, j) = (ray.k as usize / w, ray.k as usize % w);
+                let (_, dir) = self.ctx.cam.ray(i as f64, j as f64);
+                let px = self.pixel(a, b, dir, th, wall);
+                self.out.push((ray.k as usize, px));
+            }
+            k += 1;
+        }
+        self.add(lo, hi);
+    }
+
+    fn pixel(&mut self, a: &Sample, b: &Sample, dir: DVec3, th: f64, wall: bool) -> Pixel {
+        let ctx = self.ctx;
+        let cam = ctx.cam;
+        let e = cam.eye;
+        let dr = b.rho - a.rho;
+        let tau = if dr != 0.0 {
+            ((th - a.rho) / dr).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let pa = a.world(&ctx.frame);
+        let pb = b.world(&ctx.frame);
+        let p = pa.lerp(pb, tau);
+        // The seed on the pixel's own ray: the point at p's distance.
+        let lam0 = (p - e).dot(dir).max(0.0);
+        let q0 = e + lam0 * dir;
+        let n_i = a.n.lerp(b.n, tau).normalize_or(a.n);
+        // Upwards (θ increasing) reveals the upper side, in world terms.
+        let topo: i8 = if b.rho > a.rho { 1 } else { -1 };
+        let mut px = Pixel {
+            set: true,
+            side: topo,
+            depth: (q0 - e).dot(cam.d),
+            n: n_i,
+            uv: DVec2::new(q0.x, q0.y),
+            inten: a.inten + tau * (b.inten - a.inten),
+        };
+        if ctx.refine && !wall {
+            // Solved after the sweep, batched with the bin's other pixels.
+            let fp = lam0.max(cam.near) / cam.focal;
+            let la = (pa - e).length();
+            let lb = (pb - e).length();
+            let span = (la - lb).abs();
+            self.jobs.push(super::refine::Job {
+                slot: self.out.len(),
+                o: e,
+                dir,
+                lam: lam0,
+                lo: la.min(lb).min(lam0) - 4.0 * fp - span,
+                hi: la.max(lb).max(lam0) + 4.0 * fp + span,
+                fp,
+            });
+            self.job_side.push(topo);
+        }
+        if wall && ctx.opts.corrections.walls {
+            let hz = DVec3::new(self.eh.x, self.eh.y, 0.0);
+            let wn = if b.wr > a.wr { -hz } else { hz };
+            px.inten = ctx.shading.intensity(wn, -dir);
+            return px;
+        }
+        if ctx.opts.shading == ShadingMode::Normal {
+            px.inten = ctx.shading.intensity(px.n, -dir);
+        }
+        px
+    }
+
+    /// Fallback of [`Self::newton`]: march the pixel's ray over [lo, hi]
+    /// in half-footprint steps and solve the first crossing by bisection.
+    /// The march starts where the ray is on the seen side (`side`) of the
+    /// surface, stepping back if needed.
+    fn march(
+        &mut self,
+        dir: DVec3,
+        lo: f64,
+        hi: f64,
+        fp: f64,
+        side: i8,
+    ) -> Option<(f64, HeightSample)> {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let dom = ctx.frame.domain;
+        let h = |s: &mut Self, l: f64| -> Option<f64> {
+            let p = e + l * dir;
+            if !dom.contains(p.x, p.y) {
+                return None;
+            }
+            s.stats.refine_evals += 1;
+            let hs = ctx.field.eval(p.x, p.y);
+            hs.is_finite().then_some(p.z - hs.f)
+        };
+        let outside = side as f64;
+        let mut la = lo.max(0.0);
+        let mut ga = h(self, la);
+        for _ in 0..3 {
+            match ga {
+                Some(g) if g * outside > 0.0 => break,
+                _ => {
+                    la = (la - 16.0 * fp).max(0.0);
+                    ga = h(self, la);
+                }
+            }
+        }
+        let mut ga = ga.filter(|g| g * outside > 0.0)?;
+        let step = 0.5 * fp;
+        let mut n = 0;
+        while la < hi && n < 10_000 {
+            n += 1;
+            let lb = la + step;
+            let Some(gb) = h(self, lb) else {
+                la = lb;
+                continue;
+            };
+            if ga * gb <= 0.0 {
+                let (mut a, mut b) = (la, lb);
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    let gm = h(self, m)?;
+                    if gm * outside > 0.0 {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                    if b - a < 1e-6 * fp {
+                        break;
+                    }
+                }
+                let l = 0.5 * (a + b);
+                let p = e + l * dir;
+                self.stats.refine_evals += 1;
+                let hs = ctx.field.eval(p.x, p.y);
+                return hs.is_finite().then_some((l, hs));
+            }
+            la = lb;
+            ga = gb;
+        }
+        None
+    }
+}

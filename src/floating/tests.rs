@@ -1,0 +1,342 @@
+use super::*;
+use crate::camera::Projection;
+use crate::surface::{Domain, FnHeight};
+use glam::DVec3;
+
+fn sinuv() -> FnHeight<impl Fn(f64, f64) -> [f64; 3] + Sync> {
+    FnHeight {
+        domain: Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap(),
+        f: |u: f64, v: f64| {
+            let a = u * v.cos();
+            let c = 3.0 * a.cos();
+            [3.0 * a.sin(), c * v.cos(), -c * u * v.sin()]
+        },
+    }
+}
+
+fn bump() -> FnHeight<impl Fn(f64, f64) -> [f64; 3] + Sync> {
+    FnHeight {
+        domain: Domain::new(-2.0, 2.0, -2.0, 2.0).unwrap(),
+        f: |u: f64, v: f64| {
+            let e = (-(u * u + v * v)).exp();
+            [e, -2.0 * u * e, -2.0 * v * e]
+        },
+    }
+}
+
+fn ortho(el: f64, az: f64, vh: f64) -> View {
+    View {
+        elevation: el,
+        azimuth: az,
+        projection: Projection::Orthographic { view_height: vh },
+        target: DVec3::ZERO,
+    }
+}
+
+fn persp(el: f64, az: f64, dist: f64) -> View {
+    View {
+        elevation: el,
+        azimuth: az,
+        projection: Projection::Perspective {
+            distance: dist,
+            fov: 40.0,
+        },
+        target: DVec3::ZERO,
+    }
+}
+
+fn all() -> Outputs {
+    Outputs::from_names(&["rgb", "depth", "normal", "uv", "side", "mask"]).unwrap()
+}
+
+/// Brute-force first hit along a ray: dense march + bisection (independent of
+/// the column sweep). Returns (depth, normal, side).
+fn brute(field: &dyn HeightField, cam: &Camera, i: usize, j: usize) -> Option<(f64, DVec3, i8)> {
+    let (o, dir) = cam.ray(i as f64, j as f64);
+    let d = field.domain();
+    // Ray parameter range where it is over the domain and in front.
+    let (mut l0, mut l1) = (if cam.perspective { 0.0 } else { -1e3 }, 1e3);
+    for (oc, dc, a, b) in [(o.x, dir.x, d.u0, d.u1), (o.y, dir.y, d.v0, d.v1)] {
+        if dc.abs() < 1e-300 {
+            if oc < a || oc > b {
+                return None;
+            }
+        } else {
+            let (p, q) = ((a - oc) / dc, (b - oc) / dc);
+            l0 = f64::max(l0, p.min(q));
+            l1 = f64::min(l1, p.max(q));
+        }
+    }
+    if l0 >= l1 {
+        return None;
+    }
+    let g = |l: f64| {
+        let p = o + l * dir;
+        p.z - field.eval(p.x, p.y).f
+    };
+    let n = 20000;
+    let mut prev = g(l0);
+    let mut lp = l0;
+    for k in 1..=n {
+        let l = l0 + (l1 - l0) * k as f64 / n as f64;
+        let cur = g(l);
+        if prev == 0.0 || prev * cur < 0.0 {
+            let (mut a, mut b) = (lp, l);
+            for _ in 0..80 {
+                let m = 0.5 * (a + b);
+                if g(a) * g(m) <= 0.0 {
+                    b = m;
+                } else {
+                    a = m;
+                }
+            }
+            let l = 0.5 * (a + b);
+            let p = o + l * dir;
+            let hs = field.eval(p.x, p.y);
+            let nrm = hs.normal();
+            let side = if -dir.dot(nrm) > 0.0 { 1 } else { -1 };
+            return Some((cam.camera_coords(p).z, nrm, side));
+        }
+        prev = cur;
+        lp = l;
+    }
+    None
+}
+
+fn check_against_brute(
+    field: &dyn HeightField,
+    view: &View,
+    w: usize,
+    h: usize,
+) -> (f64, f64, usize) {
+    let cam = Camera::new(view, w, h).unwrap();
+    let b = render_floating_column(
+        field,
+        view,
+        w,
+        h,
+        &all(),
+        &Shading::default(),
+        &FloatingOptions::default(),
+        &Cancel::new(),
+    )
+    .unwrap();
+    let mask = b.mask.as_ref().unwrap();
+    let depth = b.depth.as_ref().unwrap();
+    let normal = b.normal.as_ref().unwrap();
+    let mut mask_bad = 0;
+    let mut errs = Vec::new();
+    let mut nerrs = Vec::new();
+    let truth: Vec<Option<(f64, DVec3, i8)>> = (0..h * w)
+        .map(|k| brute(field, &cam, k / w, k % w))
+        .collect();
+    for i in 0..h {
+        for j in 0..w {
+            let k = i * w + j;
+            let t = truth[k];
+            // Pixels whose 4-neighbourhood disagrees on hit/miss or depth
+            // (jumps) form the 1-pixel band excluded from the comparison.
+            let band = [
+                (0i64, 1i64),
+                (0, -1),
+                (1, 0),
+                (-1, 0),
+                (1, 1),
+                (1, -1),
+                (-1, 1),
+                (-1, -1),
+            ]
+            .iter()
+            .any(|(di, dj)| {
+                let (ii, jj) = (i as i64 + di, j as i64 + dj);
+                if ii < 0 || jj < 0 || ii >= h as i64 || jj >= w as i64 {
+                    return false;
+                }
+                let q = truth[ii as usize * w + jj as usize];
+                match (t, q) {
+                    (Some(a), Some(b)) => (a.0 - b.0).abs() > 5.0 * cam.pixel_size_at(a.0.abs()),
+                    (None, None) => false,
+                    _ => true,
+                }
+            });
+            if band {
+                continue;
+            }
+            if mask[k] != t.is_some() {
+                mask_bad += 1;
+                continue;
+            }
+            if let Some((z, n, _)) = t {
+                let e = (depth[k] as f64 - z).abs() / cam.pixel_size_at(z.abs());
+                errs.push(e);
+                let m = DVec3::new(
+                    normal[3 * k] as f64,
+                    normal[3 * k + 1] as f64,
+                    normal[3 * k + 2] as f64,
+                );
+                nerrs.push(m.cross(n).length().atan2(m.dot(n)).to_degrees());
+            }
+        }
+    }
+    errs.sort_by(f64::total_cmp);
+    nerrs.sort_by(f64::total_cmp);
+    let med = errs[errs.len() / 2];
+    let nmed = nerrs[nerrs.len() / 2];
+    (med, nmed, mask_bad)
+}
+
+#[test]
+fn plane_from_above_is_exact() {
+    let field = FnHeight {
+        domain: Domain::new(-1.0, 1.0, -1.0, 1.0).unwrap(),
+        f: |u: f64, v: f64| [0.3 * u + 0.2 * v, 0.3, 0.2],
+    };
+    let (med, nmed, bad) = check_against_brute(&field, &ortho(90.0, 0.0, 2.5), 40, 40);
+    assert!(med < 1e-3 && nmed < 1e-3 && bad == 0, "{med} {nmed} {bad}");
+}
+
+#[test]
+fn sinuv_ortho_oblique_matches_brute_force() {
+    let (med, nmed, bad) = check_against_brute(&sinuv(), &ortho(30.0, 30.0, 16.0), 64, 60);
+    assert!(med < 0.02 && nmed < 0.05 && bad == 0, "{med} {nmed} {bad}");
+}
+
+#[test]
+fn bump_perspective_matches_brute_force() {
+    let (med, nmed, bad) = check_against_brute(&bump(), &persp(35.0, 20.0, 8.0), 60, 50);
+    assert!(med < 0.02 && nmed < 0.05 && bad == 0, "{med} {nmed} {bad}");
+}
+
+#[test]
+fn sinuv_perspective_matches_brute_force() {
+    let (med, nmed, bad) = check_against_brute(&sinuv(), &persp(30.0, 40.0, 30.0), 64, 60);
+    assert!(med < 0.02 && nmed < 0.05 && bad == 0, "{med} {nmed} {bad}");
+}
+
+#[test]
+fn perspective_looking_straight_down_both_halves() {
+    let (med, nmed, bad) = check_against_brute(&bump(), &persp(90.0, 10.0, 6.0), 40, 40);
+    assert!(med < 0.02 && nmed < 0.05 && bad == 0, "{med} {nmed} {bad}");
+}
+
+#[test]
+fn identical_for_any_thread_count() {
+    let f = sinuv();
+    let v = ortho(25.0, 60.0, 16.0);
+    let run = |t| {
+        let o = FloatingOptions {
+            threads: Some(t),
+            ..Default::default()
+        };
+        render_floating_column(
+            &f,
+            &v,
+            50,
+            40,
+            &all(),
+            &Shading::default(),
+            &o,
+            &Cancel::new(),
+        )
+        .unwrap()
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.rgb, b.rgb);
+    assert_eq!(
+        a.depth
+            .unwrap()
+            .iter()
+            .map(|x| x.to_bits())
+            .collect::<Vec<_>>(),
+        b.depth
+            .unwrap()
+            .iter()
+            .map(|x| x.to_bits())
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(a.samples, b.samples);
+}
+
+#[test]
+fn cancelled_render_stops() {
+    let c = Cancel::new();
+    c.cancel();
+    let r = render_floating_column(
+        &sinuv(),
+        &ortho(30.0, 0.0, 16.0),
+        20,
+        20,
+        &all(),
+        &Shading::default(),
+        &FloatingOptions::default(),
+        &c,
+    );
+    assert!(matches!(r, Err(FcolError::Interrupted)));
+}
+
+#[test]
+fn nan_hole_is_a_hole() {
+    let field = FnHeight {
+        domain: Domain::new(-1.0, 1.0, -1.0, 1.0).unwrap(),
+        f: |u: f64, v: f64| {
+            if u * u + v * v < 0.25 {
+                [f64::NAN; 3]
+            } else {
+                [0.0, 0.0, 0.0]
+            }
+        },
+    };
+    let b = render_floating_column(
+        &field,
+        &ortho(90.0, 0.0, 2.5),
+        40,
+        40,
+        &all(),
+        &Shading::default(),
+        &FloatingOptions::default(),
+        &Cancel::new(),
+    )
+    .unwrap();
+    let m = b.mask.unwrap();
+    assert!(!m[20 * 40 + 20], "centre of the hole must be empty");
+    assert!(m[20 * 40 + 6], "outside the hole is surface");
+    assert!(b
+        .depth
+        .unwrap()
+        .iter()
+        .zip(&m)
+        .all(|(d, m)| d.is_nan() != *m));
+}
+
+#[test]
+fn bresenham_endpoints_and_connectivity() {
+    let (w, h) = (10, 10);
+    let mut l = vec![0u8; w * h];
+    horizon::line(&mut l, w, h, 1, 1, 8, 4);
+    let on: Vec<(usize, usize)> = (0..w * h)
+        .filter(|k| l[*k] != 0)
+        .map(|k| (h - 1 - k / w, k % w))
+        .collect();
+    assert_eq!(on.len(), 8); // one pixel per x step (|dx| > |dy|)
+    assert!(on.contains(&(1, 1)) && on.contains(&(4, 8)));
+}
+
+#[test]
+fn horizon_draws_lines_in_both_projections() {
+    for v in [ortho(30.0, 20.0, 16.0), persp(30.0, 20.0, 30.0)] {
+        let o = Outputs::from_names(&["lines"]).unwrap();
+        let b = render_floating_horizon(
+            &sinuv(),
+            &v,
+            80,
+            60,
+            &o,
+            &Shading::default(),
+            &FloatingOptions::default(),
+            &Cancel::new(),
+        )
+        .unwrap();
+        let n = b.lines.unwrap().iter().filter(|x| **x == 255).count();
+        assert!(n > 400, "{n}");
+    }
+}

@@ -1,0 +1,174 @@
+//! `render_height`: the native entry of `fcol.render` for function surfaces
+//! w = f(u, v) (floating column and floating horizon).
+
+use super::convert::{buffers_to_dict, parse_outputs, take_shading, Options};
+use super::run;
+use super::view::PyView;
+use crate::error::FcolError;
+use crate::floating::{self, Corrections, FloatingOptions, ShadingMode};
+use crate::surface::HeightField;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::time::Instant;
+
+fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
+    let mut f = FloatingOptions::default();
+    if let Some(s) = o.take::<String>("shading")? {
+        f.shading = match s.as_str() {
+            "normal" => ShadingMode::Normal,
+            "intensity" => ShadingMode::Intensity,
+            other => {
+                return Err(FcolError::value(
+                    "shading",
+                    format!("must be \"normal\" (Phong) or \"intensity\" (Gouraud), got {other:?}"),
+                )
+                .into())
+            }
+        };
+    }
+    if let Some(v) = o.take("refine")? {
+        f.refine = v;
+    }
+    if let Some(v) = o.take("step")? {
+        f.step = v;
+    }
+    if let Some(v) = o.take("max_step")? {
+        f.max_step = v;
+    }
+    if let Some(v) = o.take("refine_tol")? {
+        f.refine_tol = v;
+    }
+    if let Some(v) = o.take("refine_iters")? {
+        f.refine_iters = v;
+    }
+    let mut c = Corrections::default();
+    if let Some(v) = o.take("ridges")? {
+        c.ridges = v;
+    }
+    if let Some(v) = o.take("jumps")? {
+        c.jumps = v;
+    }
+    if let Some(v) = o.take("bumps")? {
+        c.bumps = v;
+    }
+    if let Some(v) = o.take("walls")? {
+        c.walls = v;
+    }
+    if let Some(s) = o.take::<String>("correction")? {
+        c.spline = match s.as_str() {
+            "spline" => true,
+            "supersample" => false,
+            other => {
+                return Err(FcolError::value(
+                    "correction",
+                    format!("must be \"supersample\" or \"spline\", got {other:?}"),
+                )
+                .into())
+            }
+        };
+    }
+    if let Some(v) = o.take("rate")? {
+        c.rate = v;
+    }
+    if let Some(v) = o.take("threshold")? {
+        c.threshold = v;
+    }
+    f.corrections = c;
+    if let Some(v) = o.take("antialias")? {
+        f.antialias = v;
+    }
+    if method == "floating_horizon" {
+        if let Some(v) = o.take("planes")? {
+            f.planes = v;
+        }
+    }
+    if let Some(v) = o.take("threads")? {
+        f.threads = Some(v);
+    }
+    Ok(f)
+}
+
+/// Render a function surface (called by `fcol.render`): `method` is
+/// "floating_column" (shaded, Gordon 2001 §4.2) or "floating_horizon" (line
+/// drawing, §4.1; buffers "lines" and "mask"). Returns the keyword arguments
+/// of `fcol.Image`. Options (unknown ones are a TypeError):
+///
+/// * `shading`: "normal" (Phong, default) or "intensity" (Gouraud);
+/// * `refine` (True): solve each visible pixel exactly on its ray;
+/// * `step` (1.0): largest screen gap between samples, pixels;
+///   `max_step` (2.0): largest step along a sweep, in pixel footprints;
+/// * `ridges`, `bumps`, `jumps` (False): §5 detections; `correction`
+///   ("supersample" or "spline"), `rate` (8), `threshold` (0.0625);
+///   `walls` (True): shade steps as walls (§5.1);
+/// * `antialias` (1): column supersampling of rgb/intensity (§6.4,
+///   orthographic views);
+/// * `planes` (80, floating_horizon): number of sampling planes;
+/// * `threads`: worker threads (default: all); output is identical for any;
+/// * the shading options of every renderer (`light`, `ambient`, ...).
+///
+/// >>> import fcol
+/// >>> s = fcol.Function("exp(-(u*u + v*v))", domain=((-2, 2), (-2, 2)))
+/// >>> img = fcol.render(s, fcol.View(40, 20, view_height=5.0), 64, 48, outputs=("rgb", "depth"))
+/// >>> img.depth.shape, bool(img.samples > 0)
+/// ((48, 64), True)
+#[pyfunction]
+#[pyo3(signature = (surface, view, width, height, method, outputs, options = None))]
+#[allow(clippy::too_many_arguments)]
+fn render_height<'py>(
+    py: Python<'py>,
+    surface: &Bound<'py, PyAny>,
+    view: &Bound<'py, PyAny>,
+    width: usize,
+    height: usize,
+    method: &str,
+    outputs: &Bound<'py, PyAny>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let view = view
+        .cast::<PyView>()
+        .map_err(|_| pyo3::exceptions::PyTypeError::new_err("view: expected fcol.View"))?
+        .get()
+        .view;
+    let horizon = match method {
+        "floating_column" => false,
+        "floating_horizon" => true,
+        other => {
+            return Err(FcolError::value(
+                "method",
+                format!(
+                "function surfaces take \"floating_column\" or \"floating_horizon\", got {other:?}"
+            ),
+            )
+            .into())
+        }
+    };
+    let outputs = parse_outputs(outputs)?;
+    let o = Options::new(options, py)?;
+    let shading = take_shading(&o)?;
+    let fopts = parse_options(&o, method)?;
+    o.finish(&format!("fcol.render(method={method:?})"))?;
+    fopts.validate()?;
+    crate::error::check_size(width, height)?;
+    let field = super::surfaces::height_field_from_py(surface)?;
+    let t0 = Instant::now();
+    let buf = run::cancellable(py, |cancel| {
+        let f: &dyn HeightField = &*field;
+        if horizon {
+            floating::render_floating_horizon(
+                f, &view, width, height, &outputs, &shading, &fopts, cancel,
+            )
+        } else {
+            floating::render_floating_column(
+                f, &view, width, height, &outputs, &shading, &fopts, cancel,
+            )
+        }
+    })?;
+    let elapsed = t0.elapsed().as_secs_f64();
+    super::surfaces::check_surface_errors(surface)?;
+    buffers_to_dict(py, buf, elapsed)
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(render_height, m)?)?;
+    Ok(())
+}
