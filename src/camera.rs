@@ -120,7 +120,13 @@ impl Camera {
             }
             Projection::Perspective { distance, fov } => {
                 let focal = 0.5 * h / (0.5 * fov.to_radians()).tan();
-                (true, 1.0, focal, view.target - distance * d, 1e-9 * distance)
+                (
+                    true,
+                    1.0,
+                    focal,
+                    view.target - distance * d,
+                    1e-9 * distance,
+                )
             }
         };
         Ok(Camera {
@@ -229,7 +235,13 @@ mod tests {
 
     #[test]
     fn basis_is_orthonormal_right_handed_screen() {
-        for &(a, b) in &[(0.0, 0.0), (30.0, 40.0), (90.0, 10.0), (-30.0, 200.0), (89.9, 0.5)] {
+        for &(a, b) in &[
+            (0.0, 0.0),
+            (30.0, 40.0),
+            (90.0, 10.0),
+            (-30.0, 200.0),
+            (89.9, 0.5),
+        ] {
             let (d, r, up) = ortho(a, b).basis();
             assert!((d.length() - 1.0).abs() < 1e-15);
             assert!(d.dot(r).abs() < 1e-15 && d.dot(up).abs() < 1e-15 && r.dot(up).abs() < 1e-15);
@@ -269,7 +281,9 @@ mod tests {
     fn bad_views_are_refused() {
         let mut v = ortho(30.0, 0.0);
         v.projection = Projection::Orthographic { view_height: 0.0 };
-        assert!(matches!(Camera::new(&v, 10, 10), Err(FcolError::Value { ref arg, .. }) if arg == "view_height"));
+        assert!(
+            matches!(Camera::new(&v, 10, 10), Err(FcolError::Value { ref arg, .. }) if arg == "view_height")
+        );
         assert!(Camera::new(&ortho(f64::NAN, 0.0), 10, 10).is_err());
         assert!(Camera::new(&ortho(10.0, 0.0), 0, 10).is_err());
         assert!(Camera::new(&ortho(10.0, 0.0), 1 << 20, 1 << 20).is_err());

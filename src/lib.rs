@@ -12,6 +12,7 @@ pub mod camera;
 pub mod cancel;
 pub mod error;
 pub mod image;
+pub mod parametric;
 pub mod raster;
 pub mod shade;
 pub mod surface;

@@ -103,10 +103,7 @@ impl<'py> Options<'py> {
         }
         v.extract::<T>().map(Some).map_err(|e| {
             let e: PyErr = e.into();
-            pyo3::exceptions::PyTypeError::new_err(format!(
-                "{key}: {}",
-                e.value(self.dict.py())
-            ))
+            pyo3::exceptions::PyTypeError::new_err(format!("{key}: {}", e.value(self.dict.py())))
         })
     }
 
@@ -115,12 +112,7 @@ impl<'py> Options<'py> {
         if self.dict.is_empty() {
             return Ok(());
         }
-        let keys: Vec<String> = self
-            .dict
-            .keys()
-            .iter()
-            .map(|k| k.to_string())
-            .collect();
+        let keys: Vec<String> = self.dict.keys().iter().map(|k| k.to_string()).collect();
         Err(pyo3::exceptions::PyTypeError::new_err(format!(
             "{what} got unexpected option(s) {keys:?}"
         )))

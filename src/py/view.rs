@@ -247,8 +247,11 @@ impl PyView {
         }
         let out_shape: Vec<usize> = shape[..shape.len() - 1].to_vec();
         let n: usize = out_shape.iter().product();
-        let (mut rows, mut cols, mut depth) =
-            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut rows, mut cols, mut depth) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
         let flat = a
             .to_shape((n, 3))
             .map_err(|e| FcolError::value("points", e.to_string()))?;

@@ -1,0 +1,400 @@
+//! The exact X scan (Blinn 1978 §3.3).
+//!
+//! Between two consecutive edge trackers along a level curve y = y_scan,
+//! x is monotonic (its extrema along the curve are the silhouette points,
+//! where J = x_u y_v − x_v y_u = 0, and the curve ends on boundary edges).
+//! Each such piece is scanned from its left end: for every pixel centre x_p
+//! it covers, bivariate Newton on (y − y_scan, x − x_p) from the solution
+//! of the previous pixel (seed predicted by the linearisation) gives the
+//! exact (u, v), hence depth; the nearest depth over all pieces wins.
+//!
+//! Along the tangent t = (−y_v, y_u) of the level curve dx/ds = −J, so the
+//! direction of increasing x is known at every tracker. Near the right end
+//! of a piece (a silhouette, where J → 0 and Newton's basin shrinks) and
+//! wherever a Newton step fails its checks (no convergence, the wrong sign
+//! of J, an implausible jump), the scan falls back to predictor–corrector
+//! continuation along the level curve in steps of a quarter pixel, which
+//! brackets the pixel and refines it by Newton or bisection, or finds the
+//! end of the piece (x turns back, or the curve leaves the patch).
+
+use super::screen::{Screen, ScreenSample};
+use super::trackers::{Kind, Tracker};
+use crate::surface::ParamSample;
+
+/// The visible point of one pixel so far.
+#[derive(Debug, Clone, Copy)]
+pub struct Hit {
+    pub z: f64,
+    pub u: f64,
+    pub v: f64,
+    pub jac: f64,
+    pub p: ParamSample,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct XStats {
+    /// Level-curve pieces scanned.
+    pub pieces: u64,
+    /// Pixels solved by Newton from the previous pixel.
+    pub pixel_solves: u64,
+    pub pixel_iters: u64,
+    /// Pixels solved through the continuation fallback.
+    pub fallback_solves: u64,
+    pub continuation_steps: u64,
+    /// Continuations that gave up (step budget, corrector failure).
+    pub continuation_failures: u64,
+}
+
+impl XStats {
+    pub fn add(&mut self, o: &XStats) {
+        self.pieces += o.pieces;
+        self.pixel_solves += o.pixel_solves;
+        self.pixel_iters += o.pixel_iters;
+        self.fallback_solves += o.fallback_solves;
+        self.continuation_steps += o.continuation_steps;
+        self.continuation_failures += o.continuation_failures;
+    }
+}
+
+/// Why a continuation stopped.
+enum End {
+    /// The piece ends before the pixel (silhouette or patch boundary).
+    Piece,
+    /// Numerical failure (counted).
+    Failed,
+}
+
+pub struct XScan<'a> {
+    pub sc: &'a Screen<'a>,
+    pub width: usize,
+    pub ext: f64,
+}
+
+impl<'a> XScan<'a> {
+    pub fn new(sc: &'a Screen<'a>, width: usize) -> Self {
+        let d = sc.dom;
+        XScan {
+            sc,
+            width,
+            ext: (d.u1 - d.u0).max(d.v1 - d.v0),
+        }
+    }
+
+    #[inline]
+    pub fn xpix(&self, j: usize) -> f64 {
+        j as f64 + 0.5 - 0.5 * self.width as f64
+    }
+
+    /// First pixel whose centre is at or right of x.
+    #[inline]
+    fn first_pixel(&self, x: f64) -> usize {
+        let j = (x - 0.5 + 0.5 * self.width as f64).ceil();
+        if j <= 0.0 {
+            0
+        } else if j >= self.width as f64 {
+            self.width
+        } else {
+            j as usize
+        }
+    }
+
+    /// Bivariate Newton on (y − ys, x − xp) from (u, v) (§3.3).
+    pub fn newton(
+        &self,
+        u: f64,
+        v: f64,
+        ys: f64,
+        xp: f64,
+        iters: &mut u64,
+    ) -> Option<ScreenSample> {
+        let d = self.sc.dom;
+        let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
+        for _ in 0..12 {
+            let s = self.sc.eval(u, v)?;
+            let f = s.y - ys;
+            let g = s.x - xp;
+            let det = s.jac();
+            // [x_u x_v; y_u y_v] (du, dv) = −(g, f)
+            let du = -(g * s.yv - s.xv * f) / det;
+            let dv = -(s.xu * f - s.yu * g) / det;
+            if !(du.is_finite() && dv.is_finite()) {
+                return None;
+            }
+            if (f.abs() < 1e-9 && g.abs() < 1e-9) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
+                return (f.abs() < 1e-6 && g.abs() < 1e-6).then_some(s);
+            }
+            if du.abs().max(dv.abs()) > 0.25 * self.ext {
+                return None;
+            }
+            *iters += 1;
+            let (nu, nv) = ((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1));
+            if (nu, nv) == (u, v) {
+                return None;
+            }
+            u = nu;
+            v = nv;
+        }
+        None
+    }
+
+    /// Project (u, v) onto the level curve y = ys along ∇y.
+    fn project(&self, mut u: f64, mut v: f64, ys: f64) -> Option<ScreenSample> {
+        let d = self.sc.dom;
+        for _ in 0..10 {
+            let s = self.sc.eval(u, v)?;
+            let f = s.y - ys;
+            let g2 = s.yu * s.yu + s.yv * s.yv;
+            if f.abs() < 1e-10 {
+                return Some(s);
+            }
+            if !(g2 > 0.0) {
+                return None;
+            }
+            let (du, dv) = (-f * s.yu / g2, -f * s.yv / g2);
+            if du.abs().max(dv.abs()) > 0.05 * self.ext {
+                return None;
+            }
+            let (nu, nv) = ((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1));
+            if (nu, nv) == (u, v) {
+                return (f.abs() < 1e-6).then_some(s);
+            }
+            u = nu;
+            v = nv;
+        }
+        let s = self.sc.eval(u, v)?;
+        ((s.y - ys).abs() < 1e-6).then_some(s)
+    }
+
+    /// Solve pixel xp on the arc between a and b (a.x < xp ≤ b.x), both on
+    /// the level curve of the same piece.
+    fn bracket(
+        &self,
+        a: &ScreenSample,
+        b: &ScreenSample,
+        ys: f64,
+        xp: f64,
+        sigma: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
+        let t = ((xp - a.x) / (b.x - a.x)).clamp(0.0, 1.0);
+        let (su, sv) = (a.u + t * (b.u - a.u), a.v + t * (b.v - a.v));
+        let span = (b.u - a.u).abs().max((b.v - a.v).abs());
+        if let Some(s) = self.newton(su, sv, ys, xp, &mut st.pixel_iters) {
+            let near = (s.u - su).abs().max((s.v - sv).abs()) <= span + 1e-12 * self.ext;
+            if near && s.jac() * sigma >= 0.0 {
+                return Some(s);
+            }
+        }
+        // Bisection along the arc (x is monotonic on it).
+        let (mut lo, mut hi) = (*a, *b);
+        for _ in 0..60 {
+            let m = self.project(0.5 * (lo.u + hi.u), 0.5 * (lo.v + hi.v), ys)?;
+            if m.x < xp {
+                lo = m;
+            } else {
+                hi = m;
+            }
+            if hi.x - lo.x < 1e-9 {
+                break;
+            }
+        }
+        Some(if xp - lo.x < hi.x - xp { lo } else { hi })
+    }
+
+    /// Walk along the level curve from q in the direction s·(−y_v, y_u)
+    /// (x increasing, J of sign sigma) until x reaches xp.
+    fn continuation(
+        &self,
+        q0: &ScreenSample,
+        s: f64,
+        sigma: f64,
+        ys: f64,
+        xp: f64,
+        st: &mut XStats,
+    ) -> Result<ScreenSample, End> {
+        let d = self.sc.dom;
+        let cam = self.sc.cam;
+        let mut q = *q0;
+        for _ in 0..20_000 {
+            st.continuation_steps += 1;
+            let (tu, tv) = (-s * q.yv, s * q.yu);
+            let l = tu.hypot(tv);
+            if !(l > 0.0) {
+                st.continuation_failures += 1;
+                return Err(End::Failed);
+            }
+            let (tu, tv) = (tu / l, tv / l);
+            let speed = (q.p.pu * tu + q.p.pv * tv).length() / cam.pixel_size_at(q.z);
+            let mut h = if speed > 0.0 {
+                0.25 / speed
+            } else {
+                f64::INFINITY
+            };
+            h = h.min(0.02 * self.ext);
+            // Clip to the patch: the piece ends where the curve leaves it.
+            let mut hb = f64::INFINITY;
+            if tu > 0.0 {
+                hb = hb.min((d.u1 - q.u) / tu);
+            } else if tu < 0.0 {
+                hb = hb.min((d.u0 - q.u) / tu);
+            }
+            if tv > 0.0 {
+                hb = hb.min((d.v1 - q.v) / tv);
+            } else if tv < 0.0 {
+                hb = hb.min((d.v0 - q.v) / tv);
+            }
+            if hb <= 1e-13 * self.ext {
+                return Err(End::Piece);
+            }
+            let at_boundary = h >= hb;
+            h = h.min(hb);
+            let mut next = None;
+            for _ in 0..16 {
+                if let Some(n) = self.project(q.u + h * tu, q.v + h * tv, ys) {
+                    let moved = (n.u - q.u).hypot(n.v - q.v);
+                    if moved <= 2.0 * h && moved > 0.0 {
+                        next = Some(n);
+                        break;
+                    }
+                }
+                h *= 0.5;
+            }
+            let Some(n) = next else {
+                if at_boundary {
+                    return Err(End::Piece);
+                }
+                st.continuation_failures += 1;
+                return Err(End::Failed);
+            };
+            if n.jac() * sigma <= 0.0 || n.x < q.x {
+                // x turned back: the silhouette ends the piece (the pixel, if
+                // right of q, lies beyond the fold within this step).
+                if n.x >= xp && q.x < xp {
+                    return self.bracket(&q, &n, ys, xp, sigma, st).ok_or(End::Piece);
+                }
+                return Err(End::Piece);
+            }
+            if n.x >= xp {
+                st.fallback_solves += 1;
+                return self.bracket(&q, &n, ys, xp, sigma, st).ok_or(End::Failed);
+            }
+            q = n;
+        }
+        st.continuation_failures += 1;
+        Err(End::Failed)
+    }
+
+    /// Scan one piece from `start` in direction s (x increasing).
+    fn piece(
+        &self,
+        start: &ScreenSample,
+        s: f64,
+        ys: f64,
+        hits: &mut [Option<Hit>],
+        st: &mut XStats,
+    ) {
+        let sigma = -s;
+        let mut cur = *start;
+        let mut j = self.first_pixel(cur.x);
+        if j >= self.width {
+            return;
+        }
+        st.pieces += 1;
+        while j < self.width {
+            let xp = self.xpix(j);
+            let mut sol = None;
+            let jc = cur.jac();
+            let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
+            if jc * sigma > 1e-3 * jscale {
+                // Linear prediction from the previous solution.
+                let (g, f) = (xp - cur.x, ys - cur.y);
+                let pu = (g * cur.yv - cur.xv * f) / jc;
+                let pv = (cur.xu * f - cur.yu * g) / jc;
+                let (gu, gv) = (cur.u + pu, cur.v + pv);
+                if let Some(q) = self.newton(gu, gv, ys, xp, &mut st.pixel_iters) {
+                    let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
+                    let pred = pu.abs().max(pv.abs());
+                    if q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext {
+                        st.pixel_solves += 1;
+                        sol = Some(q);
+                    }
+                }
+            }
+            let q = match sol {
+                Some(q) => q,
+                None => match self.continuation(&cur, s, sigma, ys, xp, st) {
+                    Ok(q) => q,
+                    Err(_) => return,
+                },
+            };
+            let z = q.z;
+            let better = match &hits[j] {
+                Some(h) => z < h.z,
+                None => true,
+            };
+            if better {
+                hits[j] = Some(Hit {
+                    z,
+                    u: q.u,
+                    v: q.v,
+                    jac: q.jac(),
+                    p: q.p,
+                });
+            }
+            cur = q;
+            j += 1;
+        }
+    }
+
+    /// Scan one row from the trackers of its level curves.
+    pub fn row(&self, trackers: &[Tracker], ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) {
+        let d = self.sc.dom;
+        let xmax = self.xpix(self.width - 1);
+        let xmin = -0.5 * self.width as f64;
+        for t in trackers {
+            let q = &t.s;
+            if q.x > xmax {
+                continue;
+            }
+            // Pieces starting left of the image are scanned from their
+            // left-border tracker.
+            if t.kind != Kind::Left && q.x < xmin {
+                continue;
+            }
+            let (tu, tv) = (-q.yv, q.yu);
+            let jac = q.jac();
+            let mut dirs: [Option<f64>; 2] = [None, None];
+            match t.kind {
+                Kind::Edge(e) => {
+                    let inward = match e {
+                        0 => tu,
+                        1 => -tu,
+                        2 => tv,
+                        _ => -tv,
+                    };
+                    let scale = tu.abs().max(tv.abs());
+                    if inward.abs() <= 1e-12 * scale {
+                        // Level curve tangent to the edge: try both ways.
+                        dirs = [Some(1.0), Some(-1.0)];
+                    } else {
+                        let s = inward.signum();
+                        // x increases along s·t iff s·(−J) > 0; at J ≈ 0 try.
+                        if s * -jac >= 0.0 {
+                            dirs[0] = Some(s);
+                        }
+                    }
+                }
+                Kind::Sil => dirs = [Some(1.0), Some(-1.0)],
+                Kind::Left => {
+                    if jac != 0.0 {
+                        dirs[0] = Some(-jac.signum());
+                    }
+                }
+            }
+            let _ = d;
+            for s in dirs.into_iter().flatten() {
+                self.piece(q, s, ys, hits, st);
+            }
+        }
+    }
+}
