@@ -6,6 +6,7 @@ use pyo3::prelude::*;
 
 mod convert;
 mod errors;
+mod parametric;
 mod raster;
 mod run;
 mod view;
@@ -24,5 +25,6 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     view::register(m)?;
     raster::register(m)?;
+    parametric::register(m)?;
     Ok(())
 }
