@@ -93,7 +93,7 @@ def camera(view, width, height):
                       view_height=view.view_height, width=width, height=height)
 
 
-def _newton_ray(f, dom, u, v, t, o, d, iters=30):
+def _newton_ray(f, dom, u, v, t, o, d, iters=14):
     """Solve P(u, v) = o + t d for (u, v, t), vectorised; returns converged mask."""
     (u0, u1), (v0, v1) = dom
     ok = np.ones(u.shape, bool)
@@ -163,15 +163,23 @@ def reference(shape, view, width, height, tessellations=(64, 128)):
         for _ in range(2):
             Z = best_z.reshape(height, width)
             UV = best_uv.reshape(height, width, 2)
+            Zp = np.pad(Z, 1, constant_values=np.inf)
+            nbmin = np.min([Zp[1 + di:1 + di + height, 1 + dj:1 + dj + width]
+                            for di in (-1, 0, 1) for dj in (-1, 0, 1) if (di, dj) != (0, 0)], axis=0)
+            pixz = (Z / cam.F) if cam.persp else cam.p
+            with np.errstate(invalid="ignore"):
+                cand = np.isfinite(nbmin) & ~(Z - nbmin <= 3 * np.where(np.isfinite(pixz), pixz, np.inf))
+            cand = cand.ravel()
+            if not cand.any():
+                break
             for di in (-1, 0, 1):
                 for dj in (-1, 0, 1):
                     if di == dj == 0:
                         continue
                     nb_uv = np.roll(UV, (di, dj), (0, 1)).reshape(-1, 2)
-                    have = np.isfinite(nb_uv[:, 0])
-                    if not have.any():
+                    k = np.nonzero(cand & np.isfinite(nb_uv[:, 0]))[0]
+                    if not len(k):
                         continue
-                    k = np.nonzero(have)[0]
                     Pn, _, _ = f(nb_uv[k, 0], nb_uv[k, 1])
                     t0 = np.einsum("nj,nj->n", Pn - O[k], D[k])
                     uu2, vv2, tt2, ok2 = _newton_ray(f, dom, nb_uv[k, 0], nb_uv[k, 1], t0, O[k], D[k])
@@ -190,7 +198,8 @@ def reference(shape, view, width, height, tessellations=(64, 128)):
         pix = np.where(mask, z2 / cam.F, np.nan)
     else:
         pix[:] = cam.p
-    trusted = (np.isfinite(z1) == mask) & (~mask | (np.abs(z1 - z2) < 1e-6 * pix))
+    with np.errstate(invalid="ignore"):
+        trusted = (np.isfinite(z1) == mask) & (~mask | (np.abs(z1 - z2) < 1e-6 * pix))
     depth = np.where(mask, z2, np.nan)
     uvf = uv2
     P, Pu, Pv = f(np.nan_to_num(uvf[:, 0]), np.nan_to_num(uvf[:, 1]))

@@ -254,6 +254,7 @@ pub fn render(
     b.stat("fallback_solves", x.fallback_solves as f64);
     b.stat("continuation_steps", x.continuation_steps as f64);
     b.stat("convergence_failures", x.continuation_failures as f64);
+    b.stat("fold_walks", x.fold_walks as f64);
     if let XScanMode::Sampled { .. } = opts.x_scan {
         let s = &total.samples_x;
         b.stat("x_samples", s.samples as f64);

@@ -43,6 +43,8 @@ pub struct XStats {
     pub continuation_steps: u64,
     /// Continuations that gave up (step budget, corrector failure).
     pub continuation_failures: u64,
+    /// Folds without a silhouette tracker, walked through.
+    pub fold_walks: u64,
 }
 
 impl XStats {
@@ -53,13 +55,19 @@ impl XStats {
         self.fallback_solves += o.fallback_solves;
         self.continuation_steps += o.continuation_steps;
         self.continuation_failures += o.continuation_failures;
+        self.fold_walks += o.fold_walks;
     }
 }
 
-/// Why a continuation stopped.
+/// Why a piece or a continuation stopped.
+#[derive(Debug, Clone, Copy)]
 enum End {
-    /// The piece ends before the pixel (silhouette or patch boundary).
-    Piece,
+    /// The level curve left the patch.
+    Boundary,
+    /// x turned back (a silhouette); the last point before the fold.
+    Fold(ScreenSample),
+    /// The right border of the image.
+    Done,
     /// Numerical failure (counted).
     Failed,
 }
@@ -201,8 +209,73 @@ impl<'a> XScan<'a> {
         Some(if xp - lo.x < hi.x - xp { lo } else { hi })
     }
 
+    /// One predictor–corrector step along the level curve from q in the
+    /// direction s·(−y_v, y_u), about a quarter pixel long.
+    fn advance(
+        &self,
+        q: &ScreenSample,
+        s: f64,
+        ys: f64,
+        st: &mut XStats,
+    ) -> Result<ScreenSample, End> {
+        let d = self.sc.dom;
+        let cam = self.sc.cam;
+        st.continuation_steps += 1;
+        let (tu, tv) = (-s * q.yv, s * q.yu);
+        let l = tu.hypot(tv);
+        if !(l > 0.0) {
+            st.continuation_failures += 1;
+            return Err(End::Failed);
+        }
+        let (tu, tv) = (tu / l, tv / l);
+        let speed = (q.p.pu * tu + q.p.pv * tv).length() / cam.pixel_size_at(q.z);
+        let mut h = if speed > 0.0 {
+            0.25 / speed
+        } else {
+            f64::INFINITY
+        };
+        h = h.min(0.02 * self.ext);
+        // Clip to the patch: the piece ends where the curve leaves it.
+        let mut hb = f64::INFINITY;
+        if tu > 0.0 {
+            hb = hb.min((d.u1 - q.u) / tu);
+        } else if tu < 0.0 {
+            hb = hb.min((d.u0 - q.u) / tu);
+        }
+        if tv > 0.0 {
+            hb = hb.min((d.v1 - q.v) / tv);
+        } else if tv < 0.0 {
+            hb = hb.min((d.v0 - q.v) / tv);
+        }
+        if hb <= 1e-13 * self.ext {
+            return Err(End::Boundary);
+        }
+        let at_boundary = h >= hb;
+        h = h.min(hb);
+        for _ in 0..24 {
+            if let Some(n) = self.project(q.u + h * tu, q.v + h * tv, ys) {
+                let moved = (n.u - q.u).hypot(n.v - q.v);
+                // The tangent may turn by at most ~25° per step, so that the
+                // walk cannot hop to another branch near a saddle.
+                let (nu, nv) = (-s * n.yv, s * n.yu);
+                let nl = nu.hypot(nv);
+                let turn_ok = nl > 0.0 && (nu * tu + nv * tv) >= 0.9 * nl;
+                if moved <= 2.0 * h && moved > 0.0 && turn_ok {
+                    return Ok(n);
+                }
+            }
+            h *= 0.5;
+        }
+        if at_boundary {
+            return Err(End::Boundary);
+        }
+        st.continuation_failures += 1;
+        Err(End::Failed)
+    }
+
     /// Walk along the level curve from q in the direction s·(−y_v, y_u)
     /// (x increasing, J of sign sigma) until x reaches xp.
+    #[allow(clippy::too_many_arguments)]
     fn continuation(
         &self,
         q0: &ScreenSample,
@@ -212,67 +285,18 @@ impl<'a> XScan<'a> {
         xp: f64,
         st: &mut XStats,
     ) -> Result<ScreenSample, End> {
-        let d = self.sc.dom;
-        let cam = self.sc.cam;
         let mut q = *q0;
         for _ in 0..20_000 {
-            st.continuation_steps += 1;
-            let (tu, tv) = (-s * q.yv, s * q.yu);
-            let l = tu.hypot(tv);
-            if !(l > 0.0) {
-                st.continuation_failures += 1;
-                return Err(End::Failed);
-            }
-            let (tu, tv) = (tu / l, tv / l);
-            let speed = (q.p.pu * tu + q.p.pv * tv).length() / cam.pixel_size_at(q.z);
-            let mut h = if speed > 0.0 {
-                0.25 / speed
-            } else {
-                f64::INFINITY
-            };
-            h = h.min(0.02 * self.ext);
-            // Clip to the patch: the piece ends where the curve leaves it.
-            let mut hb = f64::INFINITY;
-            if tu > 0.0 {
-                hb = hb.min((d.u1 - q.u) / tu);
-            } else if tu < 0.0 {
-                hb = hb.min((d.u0 - q.u) / tu);
-            }
-            if tv > 0.0 {
-                hb = hb.min((d.v1 - q.v) / tv);
-            } else if tv < 0.0 {
-                hb = hb.min((d.v0 - q.v) / tv);
-            }
-            if hb <= 1e-13 * self.ext {
-                return Err(End::Piece);
-            }
-            let at_boundary = h >= hb;
-            h = h.min(hb);
-            let mut next = None;
-            for _ in 0..16 {
-                if let Some(n) = self.project(q.u + h * tu, q.v + h * tv, ys) {
-                    let moved = (n.u - q.u).hypot(n.v - q.v);
-                    if moved <= 2.0 * h && moved > 0.0 {
-                        next = Some(n);
-                        break;
-                    }
-                }
-                h *= 0.5;
-            }
-            let Some(n) = next else {
-                if at_boundary {
-                    return Err(End::Piece);
-                }
-                st.continuation_failures += 1;
-                return Err(End::Failed);
-            };
+            let n = self.advance(&q, s, ys, st)?;
             if n.jac() * sigma <= 0.0 || n.x < q.x {
-                // x turned back: the silhouette ends the piece (the pixel, if
+                // x turned back: a silhouette ends the piece (the pixel, if
                 // right of q, lies beyond the fold within this step).
                 if n.x >= xp && q.x < xp {
-                    return self.bracket(&q, &n, ys, xp, sigma, st).ok_or(End::Piece);
+                    if let Some(b) = self.bracket(&q, &n, ys, xp, sigma, st) {
+                        return Ok(b);
+                    }
                 }
-                return Err(End::Piece);
+                return Err(End::Fold(q));
             }
             if n.x >= xp {
                 st.fallback_solves += 1;
@@ -284,6 +308,33 @@ impl<'a> XScan<'a> {
         Err(End::Failed)
     }
 
+    /// From a fold where x turned back, walk on along the level curve over
+    /// the piece where x decreases to the next fold, where x increases
+    /// again; `None` if the curve leaves the patch first.
+    fn walk_decreasing(
+        &self,
+        q0: &ScreenSample,
+        s: f64,
+        ys: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
+        let sigma = -s;
+        let mut q = *q0;
+        let mut seen_back = false;
+        for _ in 0..20_000 {
+            let n = self.advance(&q, s, ys, st).ok()?;
+            let back = n.jac() * sigma <= 0.0 || n.x < q.x;
+            if back {
+                seen_back = true;
+            } else if seen_back {
+                return Some(n);
+            }
+            q = n;
+        }
+        st.continuation_failures += 1;
+        None
+    }
+
     /// Scan one piece from `start` in direction s (x increasing).
     fn piece(
         &self,
@@ -292,12 +343,12 @@ impl<'a> XScan<'a> {
         ys: f64,
         hits: &mut [Option<Hit>],
         st: &mut XStats,
-    ) {
+    ) -> End {
         let sigma = -s;
         let mut cur = *start;
         let mut j = self.first_pixel(cur.x);
         if j >= self.width {
-            return;
+            return End::Done;
         }
         st.pieces += 1;
         while j < self.width {
@@ -324,7 +375,7 @@ impl<'a> XScan<'a> {
                 Some(q) => q,
                 None => match self.continuation(&cur, s, sigma, ys, xp, st) {
                     Ok(q) => q,
-                    Err(_) => return,
+                    Err(e) => return e,
                 },
             };
             let z = q.z;
@@ -344,6 +395,99 @@ impl<'a> XScan<'a> {
             cur = q;
             j += 1;
         }
+        End::Done
+    }
+
+    /// Scan a piece and, where it ends at a fold that no silhouette tracker
+    /// accounts for (Newton for the tracker can fail near a saddle of y),
+    /// walk on over the next x-decreasing piece and scan the one after it.
+    #[allow(clippy::too_many_arguments)]
+    fn piece_chain(
+        &self,
+        start: &ScreenSample,
+        s: f64,
+        ys: f64,
+        trackers: &[Tracker],
+        hits: &mut [Option<Hit>],
+        st: &mut XStats,
+    ) {
+        let known = |f: &ScreenSample| {
+            trackers.iter().any(|t| {
+                t.kind == Kind::Sil
+                    && (t.s.x - f.x).abs() < 1.0
+                    && (t.s.u - f.u).abs().max((t.s.v - f.v).abs()) < 0.02 * self.ext
+            })
+        };
+        let mut end = self.piece(start, s, ys, hits, st);
+        for _ in 0..16 {
+            let End::Fold(f) = end else { return };
+            if known(&f) {
+                return;
+            }
+            st.fold_walks += 1;
+            let Some(g) = self.walk_decreasing(&f, s, ys, st) else {
+                return;
+            };
+            if known(&g) {
+                return;
+            }
+            end = self.piece(&g, s, ys, hits, st);
+        }
+    }
+
+    /// Start the branches of a level curve that crosses itself at a
+    /// stationary point q of y.
+    fn saddle_starts(
+        &self,
+        q: &ScreenSample,
+        ys: f64,
+        trackers: &[Tracker],
+        hits: &mut [Option<Hit>],
+        st: &mut XStats,
+    ) -> bool {
+        let d = self.sc.dom;
+        let (a, b, c) = (q.yuu, q.yuv, q.yvv);
+        let disc = b * b - a * c;
+        if !(disc > 0.0) {
+            return false; // near an extremum: the ordinary start applies
+        }
+        // Directions (du, dv) with a du² + 2b du dv + c dv² = 0.
+        let dirs: [(f64, f64); 2] = if a.abs() >= c.abs() {
+            [((-b + disc.sqrt()) / a, 1.0), ((-b - disc.sqrt()) / a, 1.0)]
+        } else {
+            [(1.0, (-b + disc.sqrt()) / c), (1.0, (-b - disc.sqrt()) / c)]
+        };
+        let cam = self.sc.cam;
+        for (du, dv) in dirs {
+            let l = du.hypot(dv);
+            let (du, dv) = (du / l, dv / l);
+            let speed = (q.p.pu * du + q.p.pv * dv).length() / cam.pixel_size_at(q.z);
+            let h = if speed > 0.0 {
+                (0.05 / speed).min(0.01 * self.ext)
+            } else {
+                1e-3 * self.ext
+            };
+            for sg in [1.0, -1.0] {
+                let (u, v) = (q.u + sg * h * du, q.v + sg * h * dv);
+                if !d.contains(u, v) {
+                    continue;
+                }
+                let Some(p) = self.project(u, v, ys) else {
+                    continue;
+                };
+                let j = p.jac();
+                if j == 0.0 {
+                    continue;
+                }
+                // Continue away from the saddle only if x increases that way.
+                let s = -j.signum();
+                let (tu, tv) = (-s * p.yv, s * p.yu);
+                if tu * (p.u - q.u) + tv * (p.v - q.v) > 0.0 {
+                    self.piece_chain(&p, s, ys, trackers, hits, st);
+                }
+            }
+        }
+        true
     }
 
     /// Scan one row from the trackers of its level curves.
@@ -363,6 +507,14 @@ impl<'a> XScan<'a> {
             }
             let (tu, tv) = (-q.yv, q.yu);
             let jac = q.jac();
+            // A stationary point of y on the scan line (a saddle passed
+            // exactly, §3.2.2.4): the level curve crosses itself there and
+            // its branches leave along the asymptotic directions of the
+            // Hessian.
+            let gscale = (q.xu.abs() + q.xv.abs()).max(1e-300);
+            if tu.hypot(tv) <= 1e-4 * gscale && self.saddle_starts(q, ys, trackers, hits, st) {
+                continue;
+            }
             let mut dirs: [Option<f64>; 2] = [None, None];
             match t.kind {
                 Kind::Edge(e) => {
@@ -378,8 +530,11 @@ impl<'a> XScan<'a> {
                         dirs = [Some(1.0), Some(-1.0)];
                     } else {
                         let s = inward.signum();
-                        // x increases along s·t iff s·(−J) > 0; at J ≈ 0 try.
-                        if s * -jac >= 0.0 {
+                        // x increases along s·t iff s·(−J) > 0; at J ≈ 0 (a
+                        // silhouette meeting the edge) try: the scan stops at
+                        // once if x decreases.
+                        let jscale = (q.xu * q.yv).abs() + (q.xv * q.yu).abs();
+                        if s * -jac >= 0.0 || jac.abs() <= 1e-6 * jscale {
                             dirs[0] = Some(s);
                         }
                     }
@@ -393,7 +548,7 @@ impl<'a> XScan<'a> {
             }
             let _ = d;
             for s in dirs.into_iter().flatten() {
-                self.piece(q, s, ys, hits, st);
+                self.piece_chain(q, s, ys, trackers, hits, st);
             }
         }
     }

@@ -107,7 +107,11 @@ fn render_parametric_py<'py>(
                 None => 16,
                 Some(n) if n >= 4 && n <= 4096 => n as usize,
                 Some(n) => {
-                    return Err(FcolError::value("samples_per_turn", format!("must be in 4..=4096, got {n}")).into())
+                    return Err(FcolError::value(
+                        "samples_per_turn",
+                        format!("must be in 4..=4096, got {n}"),
+                    )
+                    .into())
                 }
             },
             max_error: max_error.unwrap_or(0.5),
