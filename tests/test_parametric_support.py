@@ -258,3 +258,23 @@ def compare(img, ref):
         out["normal_deg_median"] = float(np.median(ang))
         out["normal_deg_p99"] = float(np.percentile(ang, 99))
     return out
+
+
+def shade(ref, view, width, height, ambient=0.12, diffuse=0.88, upper=(235, 200, 120), under=(110, 150, 230),
+          background=(255, 255, 255)):
+    """The default two-sided headlight of SPEC §2 applied to the reference."""
+    cam = camera(view, width, height)
+    _, D = cam.rays()
+    to_eye = -D
+    n = ref["normal"]
+    c = np.abs(np.einsum("...j,...j->...", n, to_eye))
+    inten = ambient + diffuse * c
+    base = np.where((ref["side"] >= 0)[..., None], np.array(upper, float), np.array(under, float))
+    rgb = np.clip(np.round(base * inten[..., None]), 0, 255).astype(np.uint8)
+    rgb[~ref["mask"]] = background
+    return np.where(ref["mask"], inten, np.nan), rgb
+
+
+def ssim(a, b):
+    from skimage.metrics import structural_similarity
+    return float(structural_similarity(a, b, channel_axis=2, data_range=255))

@@ -136,7 +136,6 @@ impl Pixel {
 struct BandStats {
     y: YStats,
     x: XStats,
-    samples_x: xscan_sampled::SampledStats,
 }
 
 /// Render a parametric surface. Only the buffers in `outputs` are computed.
@@ -167,7 +166,13 @@ pub fn render(
         .par_iter()
         .map(|&(r0, r1)| {
             let yscan = YScan::new(&sc, x_left, opts.extrapolate);
-            let xscan = XScan::new(&sc, width);
+            let mut xscan = XScan::new(&sc, width);
+            if let XScanMode::Sampled { per_turn, max_error } = opts.x_scan {
+                xscan.sampled = Some(xscan_sampled::Params {
+                    step: std::f64::consts::TAU / per_turn as f64,
+                    max_error: max_error.to_radians(),
+                });
+            }
             let mut st = BandStats::default();
             let mut trackers: Vec<Tracker> = Vec::new();
             let mut seeds = Vec::new();
@@ -187,28 +192,9 @@ pub fn render(
                 );
                 hits.iter_mut().for_each(|h| *h = None);
                 let row = &mut pix[(i - r0) * width..(i - r0 + 1) * width];
-                match opts.x_scan {
-                    XScanMode::Newton => {
-                        xscan.row(&trackers, ys, &mut hits, &mut st.x);
-                        for (o, h) in row.iter_mut().zip(&hits) {
-                            *o = h.as_ref().and_then(Pixel::from_hit);
-                        }
-                    }
-                    XScanMode::Sampled {
-                        per_turn,
-                        max_error,
-                    } => {
-                        xscan_sampled::row(
-                            &xscan,
-                            &trackers,
-                            ys,
-                            per_turn,
-                            max_error,
-                            row,
-                            &mut st.samples_x,
-                            &mut st.x,
-                        );
-                    }
+                xscan.row(&trackers, ys, &mut hits, &mut st.x);
+                for (o, h) in row.iter_mut().zip(&hits) {
+                    *o = h.as_ref().and_then(Pixel::from_hit);
                 }
             }
             Ok((pix, st))
@@ -220,7 +206,6 @@ pub fn render(
         let (pix, st) = r?;
         total.y.add(&st.y);
         total.x.add(&st.x);
-        total.samples_x.add(&st.samples_x);
         for (k, px) in pix.iter().enumerate() {
             let idx = r0 * width + k;
             debug_assert!(idx < r1 * width);
@@ -256,7 +241,7 @@ pub fn render(
     b.stat("convergence_failures", x.continuation_failures as f64);
     b.stat("fold_walks", x.fold_walks as f64);
     if let XScanMode::Sampled { .. } = opts.x_scan {
-        let s = &total.samples_x;
+        let s = &total.x;
         b.stat("x_samples", s.samples as f64);
         b.stat("x_samples_refined", s.refined as f64);
         b.stat("turn_points", s.turns as f64);

@@ -45,6 +45,11 @@ pub struct XStats {
     pub continuation_failures: u64,
     /// Folds without a silhouette tracker, walked through.
     pub fold_walks: u64,
+    /// Sampled X scan: samples placed, of which added for the error
+    /// bound, and turn points of the normal angle (§4.3).
+    pub samples: u64,
+    pub refined: u64,
+    pub turns: u64,
 }
 
 impl XStats {
@@ -56,12 +61,15 @@ impl XStats {
         self.continuation_steps += o.continuation_steps;
         self.continuation_failures += o.continuation_failures;
         self.fold_walks += o.fold_walks;
+        self.samples += o.samples;
+        self.refined += o.refined;
+        self.turns += o.turns;
     }
 }
 
 /// Why a piece or a continuation stopped.
 #[derive(Debug, Clone, Copy)]
-enum End {
+pub(crate) enum End {
     /// The level curve left the patch.
     Boundary,
     /// x turned back (a silhouette); the last point before the fold.
@@ -76,6 +84,8 @@ pub struct XScan<'a> {
     pub sc: &'a Screen<'a>,
     pub width: usize,
     pub ext: f64,
+    /// Sampled X scan (§4) parameters; `None` for the exact scan.
+    pub sampled: Option<super::xscan_sampled::Params>,
 }
 
 impl<'a> XScan<'a> {
@@ -85,6 +95,7 @@ impl<'a> XScan<'a> {
             sc,
             width,
             ext: (d.u1 - d.u0).max(d.v1 - d.v0),
+            sampled: None,
         }
     }
 
@@ -95,7 +106,7 @@ impl<'a> XScan<'a> {
 
     /// First pixel whose centre is at or right of x.
     #[inline]
-    fn first_pixel(&self, x: f64) -> usize {
+    pub(crate) fn first_pixel(&self, x: f64) -> usize {
         let j = (x - 0.5 + 0.5 * self.width as f64).ceil();
         if j <= 0.0 {
             0
@@ -276,7 +287,7 @@ impl<'a> XScan<'a> {
     /// Walk along the level curve from q in the direction s·(−y_v, y_u)
     /// (x increasing, J of sign sigma) until x reaches xp.
     #[allow(clippy::too_many_arguments)]
-    fn continuation(
+    pub(crate) fn continuation(
         &self,
         q0: &ScreenSample,
         s: f64,
@@ -335,67 +346,79 @@ impl<'a> XScan<'a> {
         None
     }
 
-    /// Scan one piece from `start` in direction s (x increasing).
-    fn piece(
-        &self,
-        start: &ScreenSample,
-        s: f64,
-        ys: f64,
-        hits: &mut [Option<Hit>],
-        st: &mut XStats,
-    ) -> End {
-        let sigma = -s;
-        let mut cur = *start;
-        let mut j = self.first_pixel(cur.x);
-        if j >= self.width {
-            return End::Done;
+    /// Newton for pixel xp from the previous solution `cur` of the same
+    /// piece, with the checks that keep it on that piece.
+    pub(crate) fn try_newton(&self, cur: &ScreenSample, sigma: f64, ys: f64, xp: f64, st: &mut XStats) -> Option<ScreenSample> {
+        let jc = cur.jac();
+        let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
+        if jc * sigma <= 1e-3 * jscale {
+            return None;
         }
-        st.pieces += 1;
+        // Linear prediction from the previous solution.
+        let (g, f) = (xp - cur.x, ys - cur.y);
+        let pu = (g * cur.yv - cur.xv * f) / jc;
+        let pv = (cur.xu * f - cur.yu * g) / jc;
+        let q = self.newton(cur.u + pu, cur.v + pv, ys, xp, &mut st.pixel_iters)?;
+        let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
+        let pred = pu.abs().max(pv.abs());
+        (q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext).then_some(q)
+    }
+
+    /// Record a candidate for pixel j (nearest depth wins).
+    #[inline]
+    pub(crate) fn record(&self, hits: &mut [Option<Hit>], j: usize, h: Hit) {
+        let better = match &hits[j] {
+            Some(o) => h.z < o.z,
+            None => true,
+        };
+        if better {
+            hits[j] = Some(h);
+        }
+    }
+
+    /// Scan pixels j, j+1, … of a piece exactly from `cur`.
+    pub(crate) fn exact_from(&self, mut cur: ScreenSample, mut j: usize, s: f64, ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) -> End {
+        let sigma = -s;
         while j < self.width {
             let xp = self.xpix(j);
-            let mut sol = None;
-            let jc = cur.jac();
-            let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
-            if jc * sigma > 1e-3 * jscale {
-                // Linear prediction from the previous solution.
-                let (g, f) = (xp - cur.x, ys - cur.y);
-                let pu = (g * cur.yv - cur.xv * f) / jc;
-                let pv = (cur.xu * f - cur.yu * g) / jc;
-                let (gu, gv) = (cur.u + pu, cur.v + pv);
-                if let Some(q) = self.newton(gu, gv, ys, xp, &mut st.pixel_iters) {
-                    let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
-                    let pred = pu.abs().max(pv.abs());
-                    if q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext {
-                        st.pixel_solves += 1;
-                        sol = Some(q);
-                    }
+            let q = match self.try_newton(&cur, sigma, ys, xp, st) {
+                Some(q) => {
+                    st.pixel_solves += 1;
+                    q
                 }
-            }
-            let q = match sol {
-                Some(q) => q,
                 None => match self.continuation(&cur, s, sigma, ys, xp, st) {
                     Ok(q) => q,
                     Err(e) => return e,
                 },
             };
-            let z = q.z;
-            let better = match &hits[j] {
-                Some(h) => z < h.z,
-                None => true,
-            };
-            if better {
-                hits[j] = Some(Hit {
-                    z,
+            self.record(
+                hits,
+                j,
+                Hit {
+                    z: q.z,
                     u: q.u,
                     v: q.v,
                     jac: q.jac(),
                     p: q.p,
-                });
-            }
+                },
+            );
             cur = q;
             j += 1;
         }
         End::Done
+    }
+
+    /// Scan one piece from `start` in direction s (x increasing).
+    fn piece(&self, start: &ScreenSample, s: f64, ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) -> End {
+        let j = self.first_pixel(start.x);
+        if j >= self.width {
+            return End::Done;
+        }
+        st.pieces += 1;
+        match self.sampled {
+            None => self.exact_from(*start, j, s, ys, hits, st),
+            Some(p) => self.sampled_from(*start, j, s, ys, p, hits, st),
+        }
     }
 
     /// Scan a piece and, where it ends at a fold that no silhouette tracker
