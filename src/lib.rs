@@ -11,10 +11,12 @@
 pub mod camera;
 pub mod cancel;
 pub mod error;
+pub mod expr;
 pub mod image;
 pub mod parametric;
 pub mod raster;
 pub mod shade;
+pub mod source;
 pub mod surface;
 
 #[cfg(feature = "python")]

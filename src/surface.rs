@@ -72,6 +72,23 @@ pub trait HeightField: Sync {
     fn cheap_point_eval(&self) -> bool {
         true
     }
+
+    /// Evaluate f alone at many points (sources override this when the
+    /// value is cheaper than the value with its gradient).
+    fn eval_value_batch(&self, u: &[f64], v: &[f64], out: &mut [f64]) {
+        let mut tmp = vec![HeightSample::default(); u.len()];
+        self.eval_batch(u, v, &mut tmp);
+        for (o, s) in out.iter_mut().zip(&tmp) {
+            *o = s.f;
+        }
+    }
+
+    /// Evaluate f alone at one point.
+    fn eval_value(&self, u: f64, v: f64) -> f64 {
+        let mut out = [0.0];
+        self.eval_value_batch(&[u], &[v], &mut out);
+        out[0]
+    }
 }
 
 /// A parametric surface point with first and second derivatives.
@@ -102,6 +119,29 @@ pub trait ParametricSurface: Sync {
     }
     fn cheap_point_eval(&self) -> bool {
         true
+    }
+
+    /// Evaluate P, P_u, P_v only; the second derivatives of `out` are left
+    /// unspecified (sources override this when it is cheaper than
+    /// [`eval_batch`](Self::eval_batch)).
+    fn eval_first_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
+        self.eval_batch(u, v, out)
+    }
+
+    /// Evaluate P, P_u, P_v at one point (second derivatives unspecified).
+    fn eval_first(&self, u: f64, v: f64) -> ParamSample {
+        let mut out = [ParamSample::default()];
+        self.eval_first_batch(&[u], &[v], &mut out);
+        out[0]
+    }
+
+    /// Evaluate the point P alone at many points.
+    fn eval_point_batch(&self, u: &[f64], v: &[f64], out: &mut [DVec3]) {
+        let mut tmp = vec![ParamSample::default(); u.len()];
+        self.eval_first_batch(u, v, &mut tmp);
+        for (o, s) in out.iter_mut().zip(&tmp) {
+            *o = s.p;
+        }
     }
 }
 

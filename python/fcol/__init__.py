@@ -10,13 +10,15 @@ between. Every render reports its time and sample count; the benchmarks
 from __future__ import annotations
 
 from . import raster
-from ._fcol import ExpressionError, View, __version__, build_profile
+from ._fcol import ExpressionError, Function, Parametric, View, __version__, build_profile
 from .image import Image
 from .render import render
 
 __all__ = [
     "ExpressionError",
+    "Function",
     "Image",
+    "Parametric",
     "View",
     "__version__",
     "build_profile",

@@ -1,7 +1,7 @@
 """Type stubs of the native module fcol._fcol (hand-written; checked by
 ``make stubtest``)."""
 
-from typing import Literal
+from typing import Any, Callable, Literal, Mapping, final
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,7 @@ class ExpressionError(ValueError): ...
 
 _Vec3 = tuple[float, float, float]
 
+@final
 class View:
     def __new__(
         cls,
@@ -49,4 +50,84 @@ class View:
     def rays(
         self, width: int, height: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
-    def __eq__(self, other: object) -> bool: ...
+    def __eq__(self, value: object, /) -> bool: ...
+
+# --- surfaces: expressions, height grids, callables -------------------------
+
+_Domain = tuple[tuple[float, float], tuple[float, float]]
+_Arr = npt.NDArray[np.float64]
+
+@final
+class Function:
+    def __new__(
+        cls,
+        f: str | Callable[..., npt.ArrayLike],
+        grad: Callable[..., tuple[npt.ArrayLike, npt.ArrayLike]] | None = None,
+        domain: _Domain | None = None,
+        params: Mapping[str, float] | None = None,
+        *,
+        t: float | None = None,
+    ) -> Function: ...
+    def __call__(self, u: npt.ArrayLike, v: npt.ArrayLike) -> Any: ...
+    def gradient(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[Any, Any]: ...
+    def with_params(self, **kwargs: float) -> Function: ...
+    @property
+    def domain(self) -> _Domain: ...
+    @property
+    def expr(self) -> str | None: ...
+    @property
+    def params(self) -> dict[str, float]: ...
+    @property
+    def t(self) -> float | None: ...
+    @property
+    def calls(self) -> int: ...
+
+@final
+class Parametric:
+    def __new__(
+        cls,
+        x: str | Callable[..., npt.ArrayLike],
+        y: str | Callable[..., npt.ArrayLike],
+        z: str | Callable[..., npt.ArrayLike],
+        domain: _Domain | None = None,
+        params: Mapping[str, float] | None = None,
+        *,
+        jac: Callable[..., tuple[npt.ArrayLike, npt.ArrayLike]] | None = None,
+        t: float | None = None,
+    ) -> Parametric: ...
+    def __call__(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[Any, Any, Any]: ...
+    def jacobian(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[_Arr, _Arr]: ...
+    def hessian(self, u: npt.ArrayLike, v: npt.ArrayLike) -> tuple[_Arr, _Arr, _Arr]: ...
+    def with_params(self, **kwargs: float) -> Parametric: ...
+    @property
+    def domain(self) -> _Domain: ...
+    @property
+    def exprs(self) -> tuple[str, str, str] | None: ...
+    @property
+    def params(self) -> dict[str, float]: ...
+    @property
+    def calls(self) -> int: ...
+
+# raster
+
+def raster_line(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_line_aa(
+    r0: int, c0: int, r1: int, c1: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]: ...
+def raster_polygon(
+    rows: npt.NDArray[np.float64],
+    cols: npt.NDArray[np.float64],
+    shape: tuple[int, int] | None = None,
+    rule: str = "evenodd",
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def raster_triangles(
+    vertices: npt.NDArray[np.float64],
+    faces: npt.NDArray[np.int64],
+    values: npt.NDArray[np.float64] | None,
+    height: int,
+    width: int,
+    cull_backfaces: bool = False,
+    perspective_correct: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int32]]: ...

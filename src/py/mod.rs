@@ -9,6 +9,7 @@ mod errors;
 mod parametric;
 mod raster;
 mod run;
+pub mod surfaces;
 mod view;
 
 #[pymodule]
@@ -25,6 +26,7 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     view::register(m)?;
     raster::register(m)?;
+    surfaces::register(m)?;
     parametric::register(m)?;
     Ok(())
 }

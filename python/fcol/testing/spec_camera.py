@@ -53,3 +53,35 @@ class SpecCamera:
             return np.broadcast_to(self.E, dirs.shape), dirs
         orig = self.T + (x[..., None] * self.p) * self.r + (y[..., None] * self.p) * self.up
         return orig, np.broadcast_to(self.d, orig.shape)
+
+    @classmethod
+    def from_view(cls, view, width: int, height: int) -> "SpecCamera":
+        """The camera of an ``fcol.View`` (reads only its numbers)."""
+        if view.projection == "perspective":
+            return cls(view.elevation, view.azimuth, "perspective", target=view.target,
+                       distance=view.distance, fov=view.fov, width=width, height=height)
+        return cls(view.elevation, view.azimuth, "orthographic", target=view.target,
+                   view_height=view.view_height, width=width, height=height)
+
+    @property
+    def origin(self) -> np.ndarray:
+        """Point of depth 0: the eye (perspective) or the target (orthographic)."""
+        return self.E if self.persp else self.T
+
+    def depth_of(self, P):
+        """SPEC depth z of points (..., 3)."""
+        return (np.asarray(P, float) - self.origin) @ self.d
+
+    def pixel_size(self, depth):
+        """World size of one pixel at camera depth ``depth``."""
+        depth = np.asarray(depth, float)
+        if self.persp:
+            return depth / self.F
+        return np.full(depth.shape, self.p)
+
+    @property
+    def near(self) -> float:
+        """Perspective points with depth ≤ near are not drawn (−inf orthographic)."""
+        if self.persp:
+            return 1e-9 * float(np.linalg.norm(self.T - self.E))
+        return -np.inf

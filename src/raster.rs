@@ -1,2 +1,0 @@
-//! Raster primitives (seed 002): lines, anti-aliased lines, polygon fill and
-//! z-buffered triangles.

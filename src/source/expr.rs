@@ -1,0 +1,309 @@
+//! Surfaces defined by expressions: w = f(u, v) and (X, Y, Z)(u, v), with
+//! exact derivatives from the expression engine ([`crate::expr`]).
+
+use crate::error::{FcolError, Result};
+use crate::expr::{Compiled, Program};
+use crate::surface::{Domain, HeightField, HeightSample, ParamSample, ParametricSurface};
+use glam::DVec3;
+use std::sync::Arc;
+
+/// Parameter values in the order of [`Compiled::params`] (`t` first), from
+/// `(name, value)` pairs. Unknown names are errors naming them; missing
+/// names (other than `t`, default 0) too.
+pub fn param_values(c: &Compiled, t: f64, given: &[(String, f64)]) -> Result<Vec<f64>> {
+    let names = c.params();
+    let mut values = vec![f64::NAN; names.len()];
+    values[0] = t;
+    for (name, x) in given {
+        let Some(i) = names.iter().position(|n| n == name) else {
+            return Err(FcolError::value(
+                "params",
+                format!(
+                    "unknown parameter {name:?} (the parameters are {:?})",
+                    &names[1..]
+                ),
+            ));
+        };
+        if !x.is_finite() {
+            return Err(FcolError::value(
+                "params",
+                format!("{name:?} must be finite, got {x}"),
+            ));
+        }
+        values[i] = *x;
+    }
+    if !t.is_finite() {
+        return Err(FcolError::value("t", format!("must be finite, got {t}")));
+    }
+    let missing: Vec<&String> = names
+        .iter()
+        .zip(&values)
+        .filter(|(_, x)| x.is_nan())
+        .map(|(n, _)| n)
+        .collect();
+    if !missing.is_empty() {
+        return Err(FcolError::value(
+            "params",
+            format!("missing value for parameter(s) {missing:?}"),
+        ));
+    }
+    Ok(values)
+}
+
+/// `values` with some parameters (or `t`) changed; unknown names and
+/// non-finite values are errors naming them.
+fn changed_values(c: &Compiled, values: &[f64], changes: &[(String, f64)]) -> Result<Vec<f64>> {
+    let mut values = values.to_vec();
+    for (name, x) in changes {
+        let Some(i) = c.params().iter().position(|n| n == name) else {
+            return Err(FcolError::value(
+                "params",
+                format!(
+                    "unknown parameter {name:?} (the parameters are t and {:?})",
+                    &c.params()[1..]
+                ),
+            ));
+        };
+        if !x.is_finite() {
+            return Err(FcolError::value(
+                name.as_str(),
+                format!("must be finite, got {x}"),
+            ));
+        }
+        values[i] = *x;
+    }
+    Ok(values)
+}
+
+/// w = f(u, v) from an expression: a program for (f, f_u, f_v) and one for f
+/// alone, bound to parameter values (rebinding never re-parses).
+#[derive(Clone)]
+pub struct ExprHeight {
+    compiled: Arc<Compiled>,
+    values: Vec<f64>,
+    domain: Domain,
+    grad: Arc<Program>,
+    value: Arc<Program>,
+}
+
+impl ExprHeight {
+    /// Compile `expr` with parameters `params` (name, value) and time `t`.
+    pub fn new(expr: &str, params: &[(String, f64)], t: f64, domain: Domain) -> Result<Self> {
+        let names: Vec<&str> = params.iter().map(|(n, _)| n.as_str()).collect();
+        let c = Compiled::new(&[expr], &names, 1)?;
+        for n in &names {
+            if !c.uses(n) {
+                return Err(FcolError::value(
+                    "params",
+                    format!("parameter {n:?} does not appear in the expression {expr:?}"),
+                ));
+            }
+        }
+        let values = param_values(&c, t, params)?;
+        Ok(Self::bind(Arc::new(c), values, domain))
+    }
+
+    fn bind(compiled: Arc<Compiled>, values: Vec<f64>, domain: Domain) -> Self {
+        let grad = Arc::new(compiled.program(&values, 1));
+        let value = Arc::new(compiled.program(&values, 0));
+        ExprHeight {
+            compiled,
+            values,
+            domain,
+            grad,
+            value,
+        }
+    }
+
+    /// The same compiled expression with some parameter values (or `t`)
+    /// changed.
+    pub fn with_values(&self, changes: &[(String, f64)]) -> Result<Self> {
+        let values = changed_values(&self.compiled, &self.values, changes)?;
+        Ok(Self::bind(self.compiled.clone(), values, self.domain))
+    }
+
+    pub fn compiled(&self) -> &Arc<Compiled> {
+        &self.compiled
+    }
+    /// (name, value) of every parameter, `t` first.
+    pub fn params(&self) -> Vec<(String, f64)> {
+        self.compiled
+            .params()
+            .iter()
+            .cloned()
+            .zip(self.values.iter().copied())
+            .collect()
+    }
+    pub fn expr(&self) -> &str {
+        &self.compiled.sources()[0]
+    }
+    /// The (f, f_u, f_v) program.
+    pub fn program(&self) -> &Program {
+        &self.grad
+    }
+}
+
+impl HeightField for ExprHeight {
+    fn domain(&self) -> Domain {
+        self.domain
+    }
+    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
+        self.grad.eval_chunks(u, v, |start, cols| {
+            let (f, fu, fv) = (cols[0], cols[1], cols[2]);
+            for (i, o) in out[start..start + f.len()].iter_mut().enumerate() {
+                *o = HeightSample {
+                    f: f[i],
+                    fu: fu[i],
+                    fv: fv[i],
+                };
+            }
+        });
+    }
+    #[inline]
+    fn eval(&self, u: f64, v: f64) -> HeightSample {
+        let mut r = [0.0; 3];
+        self.grad.eval_point(u, v, &mut r);
+        HeightSample {
+            f: r[0],
+            fu: r[1],
+            fv: r[2],
+        }
+    }
+    fn eval_value_batch(&self, u: &[f64], v: &[f64], out: &mut [f64]) {
+        self.value.eval_into(u, v, &mut [out]);
+    }
+    #[inline]
+    fn eval_value(&self, u: f64, v: f64) -> f64 {
+        let mut r = [0.0];
+        self.value.eval_point(u, v, &mut r);
+        r[0]
+    }
+}
+
+/// (X, Y, Z)(u, v) from three expressions sharing one parameter table, with
+/// exact first and second derivatives.
+#[derive(Clone)]
+pub struct ExprParametric {
+    compiled: Arc<Compiled>,
+    values: Vec<f64>,
+    domain: Domain,
+    second: Arc<Program>,
+    first: Arc<Program>,
+    point: Arc<Program>,
+}
+
+impl ExprParametric {
+    pub fn new(exprs: [&str; 3], params: &[(String, f64)], t: f64, domain: Domain) -> Result<Self> {
+        let names: Vec<&str> = params.iter().map(|(n, _)| n.as_str()).collect();
+        let c = Compiled::new(&exprs, &names, 2)?;
+        for n in &names {
+            if !c.uses(n) {
+                return Err(FcolError::value(
+                    "params",
+                    format!("parameter {n:?} appears in none of x, y, z"),
+                ));
+            }
+        }
+        let values = param_values(&c, t, params)?;
+        Ok(Self::bind(Arc::new(c), values, domain))
+    }
+
+    fn bind(compiled: Arc<Compiled>, values: Vec<f64>, domain: Domain) -> Self {
+        ExprParametric {
+            second: Arc::new(compiled.program(&values, 2)),
+            first: Arc::new(compiled.program(&values, 1)),
+            point: Arc::new(compiled.program(&values, 0)),
+            compiled,
+            values,
+            domain,
+        }
+    }
+
+    pub fn with_values(&self, changes: &[(String, f64)]) -> Result<Self> {
+        let values = changed_values(&self.compiled, &self.values, changes)?;
+        Ok(Self::bind(self.compiled.clone(), values, self.domain))
+    }
+
+    pub fn params(&self) -> Vec<(String, f64)> {
+        self.compiled
+            .params()
+            .iter()
+            .cloned()
+            .zip(self.values.iter().copied())
+            .collect()
+    }
+    pub fn exprs(&self) -> &[String] {
+        self.compiled.sources()
+    }
+}
+
+#[inline]
+fn v3(c: &[&[f64]], k: usize, i: usize) -> DVec3 {
+    DVec3::new(c[k][i], c[k + 1][i], c[k + 2][i])
+}
+
+// Program output order: for X, Y, Z in turn: value, d/du, d/dv, d²/du²,
+// d²/dudv, d²/dv² (order 2), so component e of derivative q is at e*per + q.
+fn gather(c: &[&[f64]], per: usize, q: usize, i: usize) -> DVec3 {
+    DVec3::new(c[q][i], c[per + q][i], c[2 * per + q][i])
+}
+
+impl ParametricSurface for ExprParametric {
+    fn domain(&self) -> Domain {
+        self.domain
+    }
+    fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
+        self.second.eval_chunks(u, v, |start, c| {
+            for (i, o) in out[start..start + c[0].len()].iter_mut().enumerate() {
+                *o = ParamSample {
+                    p: gather(c, 6, 0, i),
+                    pu: gather(c, 6, 1, i),
+                    pv: gather(c, 6, 2, i),
+                    puu: gather(c, 6, 3, i),
+                    puv: gather(c, 6, 4, i),
+                    pvv: gather(c, 6, 5, i),
+                };
+            }
+        });
+    }
+    fn eval(&self, u: f64, v: f64) -> ParamSample {
+        let mut r = [0.0; 18];
+        self.second.eval_point(u, v, &mut r);
+        let g = |q: usize| DVec3::new(r[q], r[6 + q], r[12 + q]);
+        ParamSample {
+            p: g(0),
+            pu: g(1),
+            pv: g(2),
+            puu: g(3),
+            puv: g(4),
+            pvv: g(5),
+        }
+    }
+    fn eval_first_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
+        self.first.eval_chunks(u, v, |start, c| {
+            for (i, o) in out[start..start + c[0].len()].iter_mut().enumerate() {
+                o.p = gather(c, 3, 0, i);
+                o.pu = gather(c, 3, 1, i);
+                o.pv = gather(c, 3, 2, i);
+            }
+        });
+    }
+    fn eval_first(&self, u: f64, v: f64) -> ParamSample {
+        let mut r = [0.0; 9];
+        self.first.eval_point(u, v, &mut r);
+        let g = |q: usize| DVec3::new(r[q], r[3 + q], r[6 + q]);
+        ParamSample {
+            p: g(0),
+            pu: g(1),
+            pv: g(2),
+            ..Default::default()
+        }
+    }
+    fn eval_point_batch(&self, u: &[f64], v: &[f64], out: &mut [DVec3]) {
+        self.point.eval_chunks(u, v, |start, c| {
+            for (i, o) in out[start..start + c[0].len()].iter_mut().enumerate() {
+                *o = v3(c, 0, i);
+            }
+        });
+    }
+}
