@@ -1,7 +1,7 @@
 """Type stubs of the native module fcol._fcol (hand-written; checked by
 ``make stubtest``)."""
 
-from typing import Any, Callable, Literal, Mapping, final
+from typing import Any, Callable, Literal, Mapping, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
@@ -131,3 +131,15 @@ def raster_triangles(
     cull_backfaces: bool = False,
     perspective_correct: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64] | None, npt.NDArray[np.int32]]: ...
+
+# parametric scan line (Blinn 1978)
+
+def render_parametric(
+    surface: Parametric | Literal["sphere", "torus", "monkey_saddle", "helicoid", "enneper", "bezier"],
+    view: View,
+    width: int,
+    height: int,
+    method: Literal["scanline"],
+    outputs: str | Sequence[str],
+    options: Mapping[str, Any] | None = None,
+) -> dict[str, Any]: ...

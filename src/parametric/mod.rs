@@ -139,6 +139,7 @@ struct BandStats {
 }
 
 /// Render a parametric surface. Only the buffers in `outputs` are computed.
+#[allow(clippy::too_many_arguments)]
 pub fn render(
     surf: &(dyn ParametricSurface + Sync),
     view: &View,
@@ -167,7 +168,11 @@ pub fn render(
         .map(|&(r0, r1)| {
             let yscan = YScan::new(&sc, x_left, opts.extrapolate);
             let mut xscan = XScan::new(&sc, width);
-            if let XScanMode::Sampled { per_turn, max_error } = opts.x_scan {
+            if let XScanMode::Sampled {
+                per_turn,
+                max_error,
+            } = opts.x_scan
+            {
                 xscan.sampled = Some(xscan_sampled::Params {
                     step: std::f64::consts::TAU / per_turn as f64,
                     max_error: max_error.to_radians(),
@@ -252,9 +257,8 @@ pub fn render(
 fn write_pixel(b: &mut Buffers, idx: usize, px: &Pixel, sc: &Screen<'_>, shading: &Shading) {
     let to_eye = sc.to_eye(px.p);
     let ok_n = px.n.is_finite();
-    let side: i8 = if !ok_n {
-        1
-    } else if px.n.dot(to_eye) >= 0.0 {
+    // A degenerate normal (a pole) counts as facing the viewer.
+    let side: i8 = if !ok_n || px.n.dot(to_eye) >= 0.0 {
         1
     } else {
         -1

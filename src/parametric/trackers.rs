@@ -284,9 +284,8 @@ impl<'a> YScan<'a> {
             u = p.0;
             v = p.1;
         }
-        let mut iters = 0u32;
         let mut big = 0u32;
-        for _ in 0..30 {
+        for iters in 0..30u32 {
             let s = self.sc.eval(u, v)?;
             let f = s.y - ys;
             let (du, dv) = match kind {
@@ -325,7 +324,6 @@ impl<'a> YScan<'a> {
             if du.abs().max(dv.abs()) > 0.3 * self.ext {
                 return None;
             }
-            iters += 1;
             if step_px >= 0.1 {
                 big += 1;
             }

@@ -68,12 +68,12 @@ impl XStats {
 }
 
 /// Why a piece or a continuation stopped.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(crate) enum End {
     /// The level curve left the patch.
     Boundary,
     /// x turned back (a silhouette); the last point before the fold.
-    Fold(ScreenSample),
+    Fold(Box<ScreenSample>),
     /// The right border of the image.
     Done,
     /// Numerical failure (counted).
@@ -166,7 +166,7 @@ impl<'a> XScan<'a> {
             if f.abs() < 1e-10 {
                 return Some(s);
             }
-            if !(g2 > 0.0) {
+            if g2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return None;
             }
             let (du, dv) = (-f * s.yu / g2, -f * s.yv / g2);
@@ -234,7 +234,7 @@ impl<'a> XScan<'a> {
         st.continuation_steps += 1;
         let (tu, tv) = (-s * q.yv, s * q.yu);
         let l = tu.hypot(tv);
-        if !(l > 0.0) {
+        if l.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             st.continuation_failures += 1;
             return Err(End::Failed);
         }
@@ -307,7 +307,7 @@ impl<'a> XScan<'a> {
                         return Ok(b);
                     }
                 }
-                return Err(End::Fold(q));
+                return Err(End::Fold(Box::new(q)));
             }
             if n.x >= xp {
                 st.fallback_solves += 1;
@@ -348,7 +348,14 @@ impl<'a> XScan<'a> {
 
     /// Newton for pixel xp from the previous solution `cur` of the same
     /// piece, with the checks that keep it on that piece.
-    pub(crate) fn try_newton(&self, cur: &ScreenSample, sigma: f64, ys: f64, xp: f64, st: &mut XStats) -> Option<ScreenSample> {
+    pub(crate) fn try_newton(
+        &self,
+        cur: &ScreenSample,
+        sigma: f64,
+        ys: f64,
+        xp: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
         let jc = cur.jac();
         let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
         if jc * sigma <= 1e-3 * jscale {
@@ -377,7 +384,15 @@ impl<'a> XScan<'a> {
     }
 
     /// Scan pixels j, j+1, … of a piece exactly from `cur`.
-    pub(crate) fn exact_from(&self, mut cur: ScreenSample, mut j: usize, s: f64, ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) -> End {
+    pub(crate) fn exact_from(
+        &self,
+        mut cur: ScreenSample,
+        mut j: usize,
+        s: f64,
+        ys: f64,
+        hits: &mut [Option<Hit>],
+        st: &mut XStats,
+    ) -> End {
         let sigma = -s;
         while j < self.width {
             let xp = self.xpix(j);
@@ -409,7 +424,14 @@ impl<'a> XScan<'a> {
     }
 
     /// Scan one piece from `start` in direction s (x increasing).
-    fn piece(&self, start: &ScreenSample, s: f64, ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) -> End {
+    fn piece(
+        &self,
+        start: &ScreenSample,
+        s: f64,
+        ys: f64,
+        hits: &mut [Option<Hit>],
+        st: &mut XStats,
+    ) -> End {
         let j = self.first_pixel(start.x);
         if j >= self.width {
             return End::Done;
@@ -471,7 +493,7 @@ impl<'a> XScan<'a> {
         let d = self.sc.dom;
         let (a, b, c) = (q.yuu, q.yuv, q.yvv);
         let disc = b * b - a * c;
-        if !(disc > 0.0) {
+        if disc.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return false; // near an extremum: the ordinary start applies
         }
         // Directions (du, dv) with a du² + 2b du dv + c dv² = 0.

@@ -131,7 +131,11 @@ impl<'a> XScan<'a> {
             }
             // Next step: aim at one ϑ step from the curvature just seen.
             let rate = dth.abs() / (b.x - a.x);
-            step_px = if rate > 0.0 { 0.9 * p.step / rate } else { 64.0 };
+            step_px = if rate > 0.0 {
+                0.9 * p.step / rate
+            } else {
+                64.0
+            };
             a = b;
             if a.x >= x_last {
                 return End::Done;
@@ -144,7 +148,11 @@ impl<'a> XScan<'a> {
     fn put(&self, hits: &mut [Option<Hit>], j: usize, q: &ScreenSample, n: &DVec3) {
         // Encode the normal as P_u × P_v of an orthonormal pair.
         let (e1, e2) = n.any_orthonormal_pair();
-        let (e1, e2) = if e1.cross(e2).dot(*n) >= 0.0 { (e1, e2) } else { (e2, e1) };
+        let (e1, e2) = if e1.cross(e2).dot(*n) >= 0.0 {
+            (e1, e2)
+        } else {
+            (e2, e1)
+        };
         let p = ParamSample {
             p: q.p.p,
             pu: e1,
@@ -164,4 +172,3 @@ impl<'a> XScan<'a> {
         );
     }
 }
-

@@ -16,6 +16,9 @@ type Surf = Arc<dyn ParametricSurface + Send + Sync>;
 /// shape ("sphere", "torus", "monkey_saddle", "helicoid", "enneper",
 /// "bezier").
 fn surface_from_py(obj: &Bound<'_, PyAny>) -> PyResult<Surf> {
+    if let Ok(s) = super::surfaces::parametric_from_py(obj) {
+        return Ok(s);
+    }
     if let Ok(name) = obj.extract::<String>() {
         return shapes::by_name(&name).map(Surf::from).ok_or_else(|| {
             FcolError::value(
@@ -105,7 +108,7 @@ fn render_parametric_py<'py>(
         Some("sampled") => XScanMode::Sampled {
             per_turn: match per_turn {
                 None => 16,
-                Some(n) if n >= 4 && n <= 4096 => n as usize,
+                Some(n) if (4..=4096).contains(&n) => n as usize,
                 Some(n) => {
                     return Err(FcolError::value(
                         "samples_per_turn",
@@ -138,7 +141,10 @@ fn render_parametric_py<'py>(
     let t0 = std::time::Instant::now();
     let b = run::cancellable(py, |cancel| {
         parametric::render(surf.as_ref(), &v, w, h, &outputs, &shading, &opts, cancel)
-    })?;
+    });
+    // An exception raised by a Python callable behind the surface wins.
+    super::surfaces::check_surface_errors(surface)?;
+    let b = b?;
     buffers_to_dict(py, b, t0.elapsed().as_secs_f64())
 }
 
