@@ -100,8 +100,22 @@ impl<'a> XScan<'a> {
                 dx *= 0.5;
             }
             let Some((b, dth)) = accepted else {
-                // Near the end of the piece or too curved: exact pixels.
-                return self.exact_from(a, j, s, ys, hits, st);
+                // Too curved for a span of two pixels, or the end of the
+                // piece is near: the next pixel exactly, then sample again.
+                let xp = self.xpix(j);
+                let q = match self.try_newton(&a, sigma, ys, xp, st) {
+                    Some(q) => q,
+                    None => match self.continuation(&a, s, sigma, ys, xp, st) {
+                        Ok(q) => q,
+                        Err(e) => return e,
+                    },
+                };
+                st.pixel_solves += 1;
+                self.put(hits, j, &q, &normal(&q));
+                j += 1;
+                a = q;
+                step_px = 2.0;
+                continue;
             };
             st.samples += 1;
             if dth * last_dir < 0.0 {
