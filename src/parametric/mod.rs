@@ -245,6 +245,7 @@ pub fn render(
     b.stat("continuation_steps", x.continuation_steps as f64);
     b.stat("convergence_failures", x.continuation_failures as f64);
     b.stat("fold_walks", x.fold_walks as f64);
+    b.stat("border_walks", x.border_walks as f64);
     if let XScanMode::Sampled { .. } = opts.x_scan {
         let s = &total.x;
         b.stat("x_samples", s.samples as f64);
@@ -323,17 +324,34 @@ mod tests {
         Outputs::from_names(&["depth", "normal", "mask", "uv", "side"]).unwrap()
     }
 
-    /// The unit sphere against exact ray–sphere intersection.
+    /// Spheres of radius 1, 1e-6 and 1e6 against exact ray–sphere
+    /// intersection (SPEC §5: tiny and huge scales).
     #[test]
     fn sphere_matches_ray_intersection() {
-        let s = shapes::sphere(1.0);
+        for scale in [1.0, 1e-6, 1e6] {
+            sphere_case(scale);
+        }
+    }
+
+    fn sphere_case(scale: f64) {
+        let s = shapes::sphere(scale);
         for (el, az, persp) in [
             (30.0, 20.0, false),
             (90.0, 0.0, false),
             (-40.0, 200.0, true),
             (10.0, 75.0, true),
         ] {
-            let v = view(el, az, persp);
+            let mut v = view(el, az, persp);
+            v.target *= scale;
+            v.projection = match v.projection {
+                Projection::Orthographic { view_height } => Projection::Orthographic {
+                    view_height: view_height * scale,
+                },
+                Projection::Perspective { distance, fov } => Projection::Perspective {
+                    distance: distance * scale,
+                    fov,
+                },
+            };
             let (w, h) = (120, 100);
             let b = render(
                 &s,
@@ -356,7 +374,8 @@ mod tests {
             for i in 0..h {
                 for j in 0..w {
                     let (o, dir) = cam.ray(i as f64, j as f64);
-                    // |o + t dir|² = 1
+                    let o = o / scale; // in units of the radius
+                                       // |o + t dir|² = 1
                     let bq = o.dot(dir);
                     let c = o.dot(o) - 1.0;
                     let disc = bq * bq - c;
@@ -364,8 +383,7 @@ mod tests {
                     let idx = i * w + j;
                     if hit != mask[idx] {
                         // Only within a pixel of the silhouette.
-                        let d_sil = disc.abs().sqrt()
-                            / cam.pixel_size_at(1.0_f64.max(cam.camera_coords(o).z + 6.0));
+                        let d_sil = scale * disc.abs().sqrt() / cam.pixel_size_at(6.0 * scale);
                         if d_sil > 1.5 {
                             bad += 1;
                         }
@@ -375,7 +393,7 @@ mod tests {
                         continue;
                     }
                     let t = -bq - disc.sqrt();
-                    let p = o + t * dir;
+                    let p = (o + t * dir) * scale;
                     let z = cam.camera_coords(p).z;
                     let dz = (z - depth[idx] as f64).abs() / cam.pixel_size_at(z);
                     let n = DVec3::new(
@@ -385,7 +403,7 @@ mod tests {
                     );
                     if disc > 1e-3 {
                         worst_d = worst_d.max(dz);
-                        worst_n = worst_n.max(n.angle_between(p).to_degrees());
+                        worst_n = worst_n.max(n.angle_between(p / scale).to_degrees());
                     }
                 }
             }

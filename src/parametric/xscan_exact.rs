@@ -45,6 +45,9 @@ pub struct XStats {
     pub continuation_failures: u64,
     /// Folds without a silhouette tracker, walked through.
     pub fold_walks: u64,
+    /// Pieces brought from off-screen left to the image border without a
+    /// left-border tracker.
+    pub border_walks: u64,
     /// Sampled X scan: samples placed, of which added for the error
     /// bound, and turn points of the normal angle (§4.3).
     pub samples: u64,
@@ -61,6 +64,7 @@ impl XStats {
         self.continuation_steps += o.continuation_steps;
         self.continuation_failures += o.continuation_failures;
         self.fold_walks += o.fold_walks;
+        self.border_walks += o.border_walks;
         self.samples += o.samples;
         self.refined += o.refined;
         self.turns += o.turns;
@@ -535,6 +539,42 @@ impl<'a> XScan<'a> {
         true
     }
 
+    /// From a point of a piece left of the image, follow the piece to the
+    /// left border x = −W/2 by Newton on (y − ys, x − x_target) with x_target
+    /// stepping towards the border, the step doubled after each success and
+    /// halved after each failure. `None` if the piece ends first.
+    fn reach_left(
+        &self,
+        start: &ScreenSample,
+        s: f64,
+        ys: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
+        let sigma = -s;
+        let xl = -0.5 * self.width as f64;
+        let mut cur = *start;
+        let mut dx = 1.0_f64;
+        for _ in 0..400 {
+            let target = (cur.x + dx).min(xl);
+            match self.try_newton(&cur, sigma, ys, target, st) {
+                Some(q) => {
+                    cur = q;
+                    if cur.x >= xl - 1e-9 {
+                        return Some(cur);
+                    }
+                    dx *= 2.0;
+                }
+                None => {
+                    dx *= 0.5;
+                    if dx < 1e-6 {
+                        return None;
+                    }
+                }
+            }
+        }
+        None
+    }
+
     /// Scan one row from the trackers of its level curves.
     pub fn row(&self, trackers: &[Tracker], ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) {
         let d = self.sc.dom;
@@ -546,10 +586,8 @@ impl<'a> XScan<'a> {
                 continue;
             }
             // Pieces starting left of the image are scanned from their
-            // left-border tracker.
-            if t.kind != Kind::Left && q.x < xmin {
-                continue;
-            }
+            // left-border tracker, or brought to the border below.
+            let offscreen = t.kind != Kind::Left && q.x < xmin;
             let (tu, tv) = (-q.yv, q.yu);
             let jac = q.jac();
             // A stationary point of y on the scan line (a saddle passed
@@ -593,7 +631,26 @@ impl<'a> XScan<'a> {
             }
             let _ = d;
             for s in dirs.into_iter().flatten() {
-                self.piece_chain(q, s, ys, trackers, hits, st);
+                if offscreen {
+                    // Newton with growing steps towards the left border
+                    // (cheap however far off-screen the start lies); skipped
+                    // when a left-border tracker already starts this piece.
+                    let Some(b) = self.reach_left(q, s, ys, st) else {
+                        continue;
+                    };
+                    let tol = 1e-6 * self.ext;
+                    let known = trackers.iter().any(|t| {
+                        t.kind == Kind::Left
+                            && (t.s.u - b.u).abs() <= tol
+                            && (t.s.v - b.v).abs() <= tol
+                    });
+                    if !known {
+                        st.border_walks += 1;
+                        self.piece_chain(&b, s, ys, trackers, hits, st);
+                    }
+                } else {
+                    self.piece_chain(q, s, ys, trackers, hits, st);
+                }
             }
         }
     }
