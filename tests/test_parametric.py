@@ -59,6 +59,7 @@ HARD = [
     ("torus", fcol.View(0, 0, view_height=3.2)),  # inner silhouettes edge-on
     ("torus", fcol.View(89.9, 0, view_height=3.2)),  # scan lines tangent to the hole
     ("torus", fcol.View(90, 0, view_height=3.2)),  # saddles exactly on scan lines
+    ("torus", fcol.View(90, 33, view_height=3.2)),
     ("torus", fcol.View(10, 10, "perspective", distance=0.8, fov=70)),  # eye inside the ring
     ("monkey_saddle", fcol.View(90, 33, view_height=3.5)),  # monkey saddle head-on
     ("sphere", fcol.View(10, 10, "perspective", distance=0.65, fov=70)),  # eye inside
@@ -151,6 +152,17 @@ def test_bad_input(kwargs, exc, word):
     with pytest.raises(exc, match=word):
         _fcol.render_parametric(args["shape"], fcol.View(30, 20, view_height=2.6), args["width"], args["height"],
                                 args["method"], args["outputs"], args["options"])
+
+
+def test_docstring_example():
+    import doctest
+
+    runner = doctest.DocTestRunner(optionflags=doctest.NORMALIZE_WHITESPACE)
+    tests = doctest.DocTestFinder().find(_fcol.render_parametric.__doc__, "render_parametric", globs={})
+    assert tests and tests[0].examples
+    for t in tests:
+        runner.run(t)
+    assert runner.summarize(verbose=False).failed == 0
 
 
 def test_view_is_checked():

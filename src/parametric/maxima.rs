@@ -259,6 +259,89 @@ pub fn find_maxima(sc: &Screen<'_>, n: usize) -> MaximaList {
     out
 }
 
+/// Saddle points of screen y inside the patch (§3.2.2.4): Newton on
+/// (y_u, y_v) = 0 from every grid node whose eight neighbours change sign
+/// around it at least four times; kept when y_uv² − y_uu y_vv > 0.
+pub fn find_saddles(sc: &Screen<'_>, n: usize) -> Vec<ScreenSample> {
+    let d = sc.dom;
+    let n = n.max(3);
+    let node = |i: usize, k: usize| {
+        (
+            d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64,
+            d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64,
+        )
+    };
+    let (us, vs): (Vec<f64>, Vec<f64>) = (0..n * n).map(|q| node(q % n, q / n)).unzip();
+    let ys: Vec<f64> = sc
+        .eval_batch(&us, &vs)
+        .iter()
+        .map(|s| s.map_or(f64::NAN, |s| s.y))
+        .collect();
+    let ext = (d.u1 - d.u0).max(d.v1 - d.v0);
+    let ring = [
+        (1i64, 0i64),
+        (1, 1),
+        (0, 1),
+        (-1, 1),
+        (-1, 0),
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+    ];
+    let mut out: Vec<ScreenSample> = Vec::new();
+    for k in 1..n - 1 {
+        for i in 1..n - 1 {
+            let y0 = ys[k * n + i];
+            let vals: Vec<f64> = ring
+                .iter()
+                .map(|(di, dk)| ys[(k as i64 + dk) as usize * n + (i as i64 + di) as usize] - y0)
+                .collect();
+            if vals.iter().any(|v| !v.is_finite()) {
+                continue;
+            }
+            let changes = (0..8)
+                .filter(|&q| (vals[q] < 0.0) != (vals[(q + 1) % 8] < 0.0))
+                .count();
+            if changes < 4 {
+                continue;
+            }
+            let (mut u, mut v) = node(i, k);
+            let mut found = None;
+            for _ in 0..30 {
+                let Some(s) = sc.eval(u, v) else { break };
+                let det = s.yuu * s.yvv - s.yuv * s.yuv;
+                if det >= 0.0 {
+                    break;
+                }
+                let du = -(s.yvv * s.yu - s.yuv * s.yv) / det;
+                let dv = -(s.yuu * s.yv - s.yuv * s.yu) / det;
+                if !(du.is_finite() && dv.is_finite()) || du.abs().max(dv.abs()) > 0.1 * ext {
+                    break;
+                }
+                u += du;
+                v += dv;
+                if !d.contains(u, v) {
+                    break;
+                }
+                if du.abs().max(dv.abs()) < 1e-14 * ext {
+                    found = sc.eval(u, v);
+                    break;
+                }
+            }
+            if let Some(s) = found {
+                if !out
+                    .iter()
+                    .any(|o| (o.u - s.u).abs().max((o.v - s.v).abs()) < 1e-7 * ext)
+                {
+                    out.push(s);
+                }
+            }
+        }
+    }
+    out.sort_by(|a, b| a.u.total_cmp(&b.u).then(a.v.total_cmp(&b.v)));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -157,6 +157,7 @@ pub fn render(
     let maxima = maxima::find_maxima(&sc, opts.grid.min(129));
     let x_left = -0.5 * width as f64;
     let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
+    let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
     cancel.check()?;
     let ys_of = |i: usize| 0.5 * height as f64 - i as f64 - 0.5;
     let bands: Vec<(usize, usize)> = (0..height)
@@ -168,6 +169,7 @@ pub fn render(
         .map(|&(r0, r1)| {
             let yscan = YScan::new(&sc, x_left, opts.extrapolate);
             let mut xscan = XScan::new(&sc, width);
+            xscan.saddles = saddles.clone();
             if let XScanMode::Sampled {
                 per_turn,
                 max_error,
@@ -225,6 +227,7 @@ pub fn render(
     b.stat("maxima", maxima.maxima.len() as f64);
     b.stat("maxima_search_failures", maxima.failed as f64);
     b.stat("parabolic_maxima", maxima.parabolic as f64);
+    b.stat("saddles", saddles.len() as f64);
     b.stat("silhouette_y_extrema", net.sil_peaks as f64);
     b.stat("tracker_updates", y.updates as f64);
     b.stat("newton_per_update", per(y.iters, y.updates));

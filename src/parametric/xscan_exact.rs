@@ -90,6 +90,9 @@ pub struct XScan<'a> {
     pub ext: f64,
     /// Sampled X scan (§4) parameters; `None` for the exact scan.
     pub sampled: Option<super::xscan_sampled::Params>,
+    /// Saddle points of y (a scan line through one needs the branches of
+    /// its level curve started there).
+    pub saddles: Vec<ScreenSample>,
 }
 
 impl<'a> XScan<'a> {
@@ -100,6 +103,7 @@ impl<'a> XScan<'a> {
             width,
             ext: (d.u1 - d.u0).max(d.v1 - d.v0),
             sampled: None,
+            saddles: Vec::new(),
         }
     }
 
@@ -577,6 +581,14 @@ impl<'a> XScan<'a> {
 
     /// Scan one row from the trackers of its level curves.
     pub fn row(&self, trackers: &[Tracker], ys: f64, hits: &mut [Option<Hit>], st: &mut XStats) {
+        // A scan line through (or within a hair of) a saddle of y: the
+        // level curve crosses itself there and the trackers, whose Newton
+        // is singular at the saddle, may not see the branches.
+        for q in &self.saddles {
+            if (q.y - ys).abs() <= 1e-3 {
+                self.saddle_starts(q, ys, trackers, hits, st);
+            }
+        }
         let d = self.sc.dom;
         let xmax = self.xpix(self.width - 1);
         let xmin = -0.5 * self.width as f64;

@@ -57,7 +57,15 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// interpolated normal would be further off), `grid` (nodes per parameter of
 /// the maxima search and the safety net, default 97), `extrapolate`
 /// (tracker extrapolation between scan lines, default True), and the
-/// shading options.
+/// shading options. `fcol.render` calls it for `fcol.Parametric` surfaces.
+///
+/// >>> import fcol, math
+/// >>> s = fcol.Parametric("cos(v)*cos(u)", "cos(v)*sin(u)", "sin(v)",
+/// ...                     domain=((0, 2*math.pi), (-math.pi/2, math.pi/2)))
+/// >>> img = fcol.render(s, fcol.View(30, 20, view_height=2.4), 64, 48,
+/// ...                   outputs=("mask", "depth"))
+/// >>> bool(img.mask[24, 32]), round(float(img.depth[24, 32]), 3), img.stats["convergence_failures"]
+/// (True, -0.999, 0.0)
 #[pyfunction(name = "render_parametric")]
 #[pyo3(signature = (surface, view, width, height, method, outputs, options = None))]
 #[allow(clippy::too_many_arguments)]
