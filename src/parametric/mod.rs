@@ -240,9 +240,14 @@ pub fn render(
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);
     b.stat("pixel_solves", x.pixel_solves as f64);
+    // Newton corrections per point solved in the X scan (pixels, and for
+    // the sampled scan its samples and error probes).
     b.stat(
         "newton_per_pixel",
-        per(x.pixel_iters, x.pixel_solves + x.fallback_solves),
+        per(
+            x.pixel_iters,
+            x.pixel_solves + x.fallback_solves + x.sample_solves,
+        ),
     );
     b.stat("fallback_solves", x.fallback_solves as f64);
     b.stat("continuation_steps", x.continuation_steps as f64);

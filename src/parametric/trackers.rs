@@ -151,6 +151,110 @@ fn march(n: usize, us: &[f64], vs: &[f64], g: &[f64], y: &[f64]) -> Vec<Seg> {
     segs
 }
 
+/// Trace the curves g = 0 through the given points with exact y at every
+/// vertex: predictor along (−g_v, g_u), Newton corrector along ∇g, steps
+/// that move y by at most 2 px and (u, v) by at most half a grid cell.
+/// Cells already crossed are not traced again. Stops at the patch edge,
+/// at holes, or when y leaves the image by far.
+fn trace<G: Fn(&ScreenSample) -> (f64, f64, f64)>(
+    sc: &Screen<'_>,
+    g: &G,
+    starts: &[(f64, f64)],
+    cell: f64,
+    image_h: f64,
+) -> Vec<Seg> {
+    let d = sc.dom;
+    let mut segs = Vec::new();
+    let key = |u: f64, v: f64| {
+        (
+            ((u - d.u0) / cell).floor() as i64,
+            ((v - d.v0) / cell).floor() as i64,
+        )
+    };
+    let mut visited = std::collections::HashSet::new();
+    let correct = |mut u: f64, mut v: f64| -> Option<ScreenSample> {
+        for _ in 0..12 {
+            let s = sc.eval(u, v)?;
+            let (gv, gu, gvv) = g(&s);
+            let n2 = gu * gu + gvv * gvv;
+            if n2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                return None;
+            }
+            let (du, dv) = (-gv * gu / n2, -gv * gvv / n2);
+            if du.abs().max(dv.abs()) > cell {
+                return None;
+            }
+            u += du;
+            v += dv;
+            if !d.contains(u, v) {
+                return None;
+            }
+            if du.abs().max(dv.abs()) < 1e-12 * cell {
+                return sc.eval(u, v);
+            }
+        }
+        let s = sc.eval(u, v)?;
+        (g(&s).0.abs() < 1e-6 * (1.0 + g(&s).1.abs() + g(&s).2.abs()) * cell).then_some(s)
+    };
+    for &(u0, v0) in starts {
+        if visited.contains(&key(u0, v0)) {
+            continue;
+        }
+        let Some(s0) = correct(u0, v0) else { continue };
+        let mut mine = Vec::new();
+        for dir in [1.0, -1.0] {
+            let mut q = s0;
+            for step in 0..4000 {
+                mine.push(key(q.u, q.v));
+                if q.y.abs() > 8.0 * image_h {
+                    break;
+                }
+                let (_, gu, gv) = g(&q);
+                let l = gu.hypot(gv);
+                if l.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    break;
+                }
+                let (tu, tv) = (-dir * gv / l, dir * gu / l);
+                let ydot = (q.yu * tu + q.yv * tv).abs();
+                let mut h = (0.5 * cell).min(if ydot > 0.0 {
+                    2.0 / ydot
+                } else {
+                    f64::INFINITY
+                });
+                let mut next = None;
+                for _ in 0..20 {
+                    let (pu, pv) = (q.u + h * tu, q.v + h * tv);
+                    if d.contains(pu, pv) {
+                        if let Some(n) = correct(pu, pv) {
+                            let moved = (n.u - q.u).hypot(n.v - q.v);
+                            if moved > 0.0 && moved <= 2.0 * h && (n.y - q.y).abs() <= 4.0 {
+                                next = Some(n);
+                                break;
+                            }
+                        }
+                    }
+                    h *= 0.5;
+                }
+                let Some(n) = next else { break };
+                segs.push(Seg {
+                    a: (q.u, q.v),
+                    b: (n.u, n.v),
+                    ya: q.y,
+                    yb: n.y,
+                });
+                q = n;
+                // Joined a part traced from an earlier start, or closed a loop.
+                let closed = step > 4 && (q.u - s0.u).abs().max((q.v - s0.v).abs()) < h;
+                if visited.contains(&key(q.u, q.v)) || closed {
+                    break;
+                }
+            }
+        }
+        visited.extend(mine);
+    }
+    segs
+}
+
 impl Net {
     /// Sample the patch on an n×n grid and each edge at `m` points.
     pub fn build(sc: &Screen<'_>, n: usize, m: usize, x_left: f64) -> Net {
@@ -171,8 +275,22 @@ impl Net {
             .iter()
             .map(|s| s.map_or(f64::NAN, |s| s.x - x_left))
             .collect();
-        let sil = march(n, &us, &vs, &j, &y);
-        let left = march(n, &us, &vs, &gx, &y);
+        let mut sil = march(n, &us, &vs, &j, &y);
+        let mut left = march(n, &us, &vs, &gx, &y);
+        // Follow each curve from its marching-squares crossings with exact
+        // y along it: where y varies fast (an eye close to the surface) the
+        // linear interpolation of a coarse cell is not good enough.
+        let cell = ((d.u1 - d.u0).max(d.v1 - d.v0)) / (n - 1) as f64;
+        let hmax = sc.cam.height as f64;
+        let gj = |s: &ScreenSample| {
+            let (ju, jv) = s.jac_grad();
+            (s.jac(), ju, jv)
+        };
+        let gl = |s: &ScreenSample| (s.x - x_left, s.xu, s.xv);
+        let starts_sil: Vec<(f64, f64)> = sil.iter().map(|g| g.a).collect();
+        let starts_left: Vec<(f64, f64)> = left.iter().map(|g| g.a).collect();
+        sil.extend(trace(sc, &gj, &starts_sil, cell, hmax));
+        left.extend(trace(sc, &gl, &starts_left, cell, hmax));
         let m = m.max(3);
         let edges = std::array::from_fn(|e| {
             let (t0, t1) = if e < 2 { (d.v0, d.v1) } else { (d.u0, d.u1) };

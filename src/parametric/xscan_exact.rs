@@ -53,6 +53,8 @@ pub struct XStats {
     pub samples: u64,
     pub refined: u64,
     pub turns: u64,
+    /// Newton solves made to place and check samples.
+    pub sample_solves: u64,
 }
 
 impl XStats {
@@ -68,6 +70,7 @@ impl XStats {
         self.samples += o.samples;
         self.refined += o.refined;
         self.turns += o.turns;
+        self.sample_solves += o.sample_solves;
     }
 }
 

@@ -78,12 +78,14 @@ impl<'a> XScan<'a> {
             let mut dx = step_px.clamp(1.0, 64.0);
             while dx >= 2.0 {
                 let xb = (a.x + dx).min(x_last.max(a.x + 1.0));
+                st.sample_solves += 1;
                 if let Some(b) = self.try_newton(&a, sigma, ys, xb, st) {
                     let tb = self.theta(&b, s);
                     let dth = tb - ta;
                     if dth.abs() <= p.step {
                         // Error test at the middle of the span.
                         let xm = 0.5 * (a.x + b.x);
+                        st.sample_solves += 1;
                         if let Some(m) = self.try_newton(&a, sigma, ys, xm, st) {
                             let t = (xm - a.x) / (b.x - a.x);
                             let nb = normal(&b);
