@@ -99,3 +99,21 @@ def test_callable_surface_errors_propagate():
     armed.append(True)
     with pytest.raises(RuntimeError, match="bad surface"):
         fcol.render(surf, fcol.View(30, 20, view_height=2), 8, 6, outputs=("mask",))
+
+
+def test_ctrl_c_interrupts_a_long_render():
+    """A render of a Python-callable surface (slow: one call per point)
+    stops soon after Ctrl-C."""
+    import _thread
+    import threading
+    import time
+
+    surf = fcol.Parametric(lambda u, v: np.cos(v) * np.cos(u), lambda u, v: np.cos(v) * np.sin(u),
+                           lambda u, v: np.sin(v), domain=((0, 2 * PI), (-PI / 2, PI / 2)))
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    t0 = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        fcol.render(surf, fcol.View(30, 20, view_height=2.6), 400, 300, outputs=("mask",))
+    assert time.perf_counter() - t0 < 0.5 + 1.5  # Ctrl-C honoured within about a second
+    timer.cancel()

@@ -170,6 +170,7 @@ pub fn render(
             let yscan = YScan::new(&sc, x_left, opts.extrapolate);
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
+            xscan.cancel = Some(cancel);
             if let XScanMode::Sampled {
                 per_turn,
                 max_error,

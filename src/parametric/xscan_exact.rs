@@ -96,6 +96,8 @@ pub struct XScan<'a> {
     /// Saddle points of y (a scan line through one needs the branches of
     /// its level curve started there).
     pub saddles: Vec<ScreenSample>,
+    /// Checked every few dozen pixels (slow surfaces: Python callables).
+    pub cancel: Option<&'a crate::cancel::Cancel>,
 }
 
 impl<'a> XScan<'a> {
@@ -107,6 +109,7 @@ impl<'a> XScan<'a> {
             ext: (d.u1 - d.u0).max(d.v1 - d.v0),
             sampled: None,
             saddles: Vec::new(),
+            cancel: None,
         }
     }
 
@@ -406,6 +409,9 @@ impl<'a> XScan<'a> {
     ) -> End {
         let sigma = -s;
         while j < self.width {
+            if j % 32 == 0 && self.cancel.is_some_and(|c| c.is_cancelled()) {
+                return End::Failed;
+            }
             let xp = self.xpix(j);
             let q = match self.try_newton(&cur, sigma, ys, xp, st) {
                 Some(q) => {

@@ -71,6 +71,9 @@ impl<'a> XScan<'a> {
         let mut last_dir = 0.0;
         let x_last = self.xpix(self.width - 1);
         while j < self.width {
+            if self.cancel.is_some_and(|c| c.is_cancelled()) {
+                return End::Failed;
+            }
             let ta = self.theta(&a, s);
             let na = normal(&a);
             // Find the next sample b within one ϑ step and the error bound.
