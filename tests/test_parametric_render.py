@@ -117,3 +117,30 @@ def test_ctrl_c_interrupts_a_long_render():
         fcol.render(surf, fcol.View(30, 20, view_height=2.6), 400, 300, outputs=("mask",))
     assert time.perf_counter() - t0 < 0.5 + 1.5  # Ctrl-C honoured within about a second
     timer.cancel()
+
+
+@pytest.mark.parametrize("view", [
+    fcol.View(0, 90, view_height=3.0),  # the ridge is a horizontal line in the image
+    fcol.View(0, 90, target=(0, 0, 1 - 20.5 / 24), view_height=3.0),  # ridge exactly on a row centre
+    fcol.View(20, 75, "perspective", distance=5, fov=40),
+], ids=["ortho-ridge", "ortho-ridge-on-row", "persp"])
+def test_parabolic_cylinder_top(view):
+    """A ridge of maxima (y_uu y_vv − y_uv² = 0, §3.4): four boundary
+    trackers instead of two silhouette trackers below it."""
+    surf = fcol.Parametric("u", "v", "1 - u**2", domain=((-1, 1), (-1, 1)))
+
+    def xyz(u, v):
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        return u, v, 1 - u**2
+
+    def jac(u, v):
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        z = np.zeros_like(u)
+        return np.stack([1 + z, z, -2 * u], -1), np.stack([z, 1 + z, z], -1)
+
+    ref = parametric_reference(xyz, jac, ((-1, 1), (-1, 1)), view, W, H)
+    img = fcol.render(surf, view, W, H, outputs=("depth", "normal", "mask"))
+    m = compare(img, ref, view)
+    assert m["mask_bad"] == 0, m
+    assert m["depth_px_median"] <= 1e-3 and m["normal_deg_p99"] <= 0.5, m
+    assert img.stats["convergence_failures"] == 0
