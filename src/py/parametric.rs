@@ -59,6 +59,17 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// (tracker extrapolation between scan lines, default True), and the
 /// shading options. `fcol.render` calls it for `fcol.Parametric` surfaces.
 ///
+/// `image.stats` holds the counters of the run: `maxima`, `saddles`,
+/// `parabolic_maxima` (§3.4), `silhouette_y_extrema` (curtain folds and
+/// stationary points on the silhouette), `newton_per_update` (Newton
+/// corrections per tracker update) and `newton_per_update_tenth_px` (those
+/// larger than 0.1 px, the seed's stopping rule), `trackers_lost`
+/// (non-convergence, §3.2.3), `created_at_maxima`, `created_at_folds`,
+/// `net_added` (trackers the safety net supplied), `newton_per_pixel`,
+/// `fold_walks`, `border_walks`, `convergence_failures` (X-scan
+/// continuations that gave up; pixels may be missing there), and for the
+/// sampled scan `x_samples`, `x_samples_refined`, `turn_points`.
+///
 /// >>> import fcol, math
 /// >>> s = fcol.Parametric("cos(v)*cos(u)", "cos(v)*sin(u)", "sin(v)",
 /// ...                     domain=((0, 2*math.pi), (-math.pi/2, math.pi/2)))
