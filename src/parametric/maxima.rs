@@ -230,10 +230,13 @@ pub fn find_maxima(sc: &Screen<'_>, n: usize) -> MaximaList {
     for (u, v) in starts {
         match climb(sc, u, v) {
             Some(m) => {
+                // The same point, or the same screen point (a degenerate
+                // edge such as a sphere's pole, where P_u = 0).
                 let dup = out.maxima.iter().any(|o| {
-                    ((o.u - m.u) / ext_u).abs() < 1e-7
+                    (((o.u - m.u) / ext_u).abs() < 1e-7
                         && ((o.v - m.v) / ext_v).abs() < 1e-7
-                        && o.kind == m.kind
+                        && o.kind == m.kind)
+                        || ((o.s.x - m.s.x).abs() < 1e-7 && (o.y - m.y).abs() < 1e-7)
                 });
                 if !dup {
                     out.maxima.push(m);
