@@ -144,3 +144,19 @@ def test_parabolic_cylinder_top(view):
     assert m["mask_bad"] == 0, m
     assert m["depth_px_median"] <= 1e-3 and m["normal_deg_p99"] <= 0.5, m
     assert img.stats["convergence_failures"] == 0
+
+
+@pytest.mark.parametrize("k", [1e-6, 1e6])
+def test_tiny_and_huge_parameter_domains(k):
+    """The same torus with its parameters scaled by k: the same picture."""
+    view = fcol.View(35, 30, "perspective", distance=5, fov=40)
+    x, y, z = "(1 + 0.4*cos(v/k))*cos(u/k)", "(1 + 0.4*cos(v/k))*sin(u/k)", "0.4*sin(v/k)"
+    base = fcol.render(fcol.Parametric(x, y, z, domain=((0, 2 * PI), (0, 2 * PI)), params={"k": 1.0}),
+                       view, W, H, outputs=("depth", "mask"))
+    scaled = fcol.render(fcol.Parametric(x, y, z, domain=((0, 2 * PI * k), (0, 2 * PI * k)), params={"k": k}),
+                         view, W, H, outputs=("depth", "mask", "uv"))
+    assert np.array_equal(base.mask, scaled.mask)
+    m = base.mask
+    assert np.nanmax(np.abs(base.depth[m] - scaled.depth[m])) < 1e-5
+    assert np.nanmax(scaled.uv[m]) > 6 * k
+    assert scaled.stats["convergence_failures"] == 0
