@@ -16,6 +16,7 @@ pub mod floating;
 pub mod horizon;
 
 pub mod image;
+pub mod parametric;
 pub mod raster;
 pub mod shade;
 pub mod source;

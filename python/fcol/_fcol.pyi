@@ -1,7 +1,7 @@
 """Type stubs of the native module fcol._fcol (hand-written; checked by
 ``make stubtest``)."""
 
-from typing import Any, Callable, Literal, Mapping, final
+from typing import Any, Callable, Literal, Mapping, Sequence, final
 
 import numpy as np
 import numpy.typing as npt
@@ -212,4 +212,11 @@ def render_height(
     method: Literal["floating_column", "floating_horizon"],
     outputs: str | tuple[str, ...] | list[str],
     options: dict[str, Any] | None = None,
+# parametric scan line (Blinn 1978)
+
+def render_parametric(
+    surface: Parametric | Literal["sphere", "torus", "monkey_saddle", "helicoid", "enneper", "bezier"],
+    method: Literal["scanline"],
+    outputs: str | Sequence[str],
+    options: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]: ...

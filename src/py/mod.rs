@@ -7,6 +7,7 @@ use pyo3::prelude::*;
 mod convert;
 mod errors;
 mod horizon;
+mod parametric;
 mod raster;
 mod render;
 mod run;
@@ -30,5 +31,6 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
     render::register(m)?;
     surfaces::register(m)?;
     horizon::register(m)?;
+    parametric::register(m)?;
     Ok(())
 }

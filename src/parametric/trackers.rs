@@ -1,0 +1,622 @@
+//! The Y scan: edge trackers (Blinn 1978 §3.2).
+//!
+//! An edge tracker is a point (u, v) on the level curve y(u, v) = y_scan of
+//! the current scan line that also lies on
+//! * a patch boundary (boundary-edge tracker, univariate Newton on
+//!   y(u0, v) = y_scan, … §3.2.1),
+//! * the silhouette J = x_u y_v − x_v y_u = 0 (Blinn's Zn = 0, bivariate
+//!   Newton on (y − y_scan, J) §3.2.1), or
+//! * the left border of the image x = x_left (bivariate Newton on
+//!   (y − y_scan, x − x_left)): a level curve that comes in from beyond the
+//!   left border (perspective curves running off to x = −∞, or a patch wider
+//!   than the image) starts its X scan there.
+//!
+//! Between scan lines each tracker is updated by Newton from its previous
+//! position, extrapolated from the two previous ones (§3.5). Trackers are
+//! created at the local maxima of y the scan passes (second-order start
+//! §3.2.2.2), where a boundary tracker's J changes sign (folded edge
+//! §3.2.2.3), and deleted when Newton fails to converge (minima §3.2.3) or a
+//! silhouette tracker leaves the patch.
+//!
+//! Safety net: tracking alone misses level-curve pieces born at saddles and
+//! curtain folds (§3.4) or lost by a failed update. Every scan line the
+//! curves are therefore also intersected with a coarse precomputed picture
+//! of them — y sampled along each boundary edge, and the silhouette and the
+//! left-border curve traced by marching squares over a grid — and every
+//! crossing without a tracker is refined by the same Newton iteration and
+//! added (counted in the statistics as `net_added`).
+
+use super::maxima::{MaxKind, Maximum};
+use super::screen::{Screen, ScreenSample};
+use crate::surface::Domain;
+
+/// What a tracker follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// Boundary edge: 0 = (u0, ·), 1 = (u1, ·), 2 = (·, v0), 3 = (·, v1).
+    Edge(u8),
+    /// Silhouette J = 0.
+    Sil,
+    /// Left image border x = x_left.
+    Left,
+}
+
+#[derive(Debug, Clone, Copy)]
+pub struct Tracker {
+    pub kind: Kind,
+    pub s: ScreenSample,
+    /// Position on the previous scan line (for the §3.5 extrapolation).
+    pub prev: Option<(f64, f64)>,
+}
+
+/// Counters of the Y scan.
+#[derive(Debug, Clone, Default)]
+pub struct YStats {
+    /// Tracker updates from one scan line to the next.
+    pub updates: u64,
+    /// Newton corrections made by those updates (to full precision).
+    pub iters: u64,
+    /// Corrections larger than a tenth of a pixel (the seed's stopping rule).
+    pub iters_blinn: u64,
+    /// Updates that failed to converge (tracker deleted, §3.2.3).
+    pub lost: u64,
+    /// Silhouette trackers that left the patch.
+    pub exited: u64,
+    pub created_maxima: u64,
+    pub created_fold: u64,
+    /// Trackers the safety net had to add on a scan line after the first of
+    /// a band.
+    pub net_added: u64,
+    /// Trackers seeded by the net on the first scan line of a band.
+    pub band_seeds: u64,
+}
+
+impl YStats {
+    pub fn add(&mut self, o: &YStats) {
+        self.updates += o.updates;
+        self.iters += o.iters;
+        self.iters_blinn += o.iters_blinn;
+        self.lost += o.lost;
+        self.exited += o.exited;
+        self.created_maxima += o.created_maxima;
+        self.created_fold += o.created_fold;
+        self.net_added += o.net_added;
+        self.band_seeds += o.band_seeds;
+    }
+}
+
+/// A segment of a curve traced by marching squares, with y at its ends.
+#[derive(Debug, Clone, Copy)]
+struct Seg {
+    a: (f64, f64),
+    b: (f64, f64),
+    ya: f64,
+    yb: f64,
+}
+
+/// The coarse picture of the tracked curves (the safety net).
+pub struct Net {
+    /// Samples (t, y) along each boundary edge.
+    edges: [Vec<(f64, f64)>; 4],
+    sil: Vec<Seg>,
+    left: Vec<Seg>,
+    /// Local maxima of y along the silhouette polylines: curtain folds
+    /// (§3.4) and the strict maxima they pass through.
+    pub sil_peaks: usize,
+}
+
+/// Position of edge `e` at parameter t.
+#[inline]
+pub fn edge_point(d: &Domain, e: u8, t: f64) -> (f64, f64) {
+    match e {
+        0 => (d.u0, t),
+        1 => (d.u1, t),
+        2 => (t, d.v0),
+        _ => (t, d.v1),
+    }
+}
+
+fn march(n: usize, us: &[f64], vs: &[f64], g: &[f64], y: &[f64]) -> Vec<Seg> {
+    let mut segs = Vec::new();
+    let idx = |i: usize, k: usize| k * n + i;
+    for k in 0..n - 1 {
+        for i in 0..n - 1 {
+            let c = [idx(i, k), idx(i + 1, k), idx(i + 1, k + 1), idx(i, k + 1)];
+            if c.iter().any(|&q| !g[q].is_finite() || !y[q].is_finite()) {
+                continue;
+            }
+            let mut pts: Vec<((f64, f64), f64)> = Vec::with_capacity(4);
+            for e in 0..4 {
+                let (p, q) = (c[e], c[(e + 1) % 4]);
+                let (gp, gq) = (g[p], g[q]);
+                // A zero counts as positive so that each crossing is seen once.
+                if (gp < 0.0) != (gq < 0.0) {
+                    let t = gp / (gp - gq);
+                    let pt = (us[p] + t * (us[q] - us[p]), vs[p] + t * (vs[q] - vs[p]));
+                    pts.push((pt, y[p] + t * (y[q] - y[p])));
+                }
+            }
+            for pair in pts.chunks(2) {
+                if let [a, b] = pair {
+                    segs.push(Seg {
+                        a: a.0,
+                        b: b.0,
+                        ya: a.1,
+                        yb: b.1,
+                    });
+                }
+            }
+        }
+    }
+    segs
+}
+
+/// Trace the curves g = 0 through the given points with exact y at every
+/// vertex: predictor along (−g_v, g_u), Newton corrector along ∇g, steps
+/// that move y by at most 2 px and (u, v) by at most half a grid cell.
+/// Cells already crossed are not traced again. Stops at the patch edge,
+/// at holes, or when y leaves the image by far.
+fn trace<G: Fn(&ScreenSample) -> (f64, f64, f64)>(
+    sc: &Screen<'_>,
+    g: &G,
+    starts: &[(f64, f64)],
+    cell: f64,
+    image_h: f64,
+) -> Vec<Seg> {
+    let d = sc.dom;
+    let mut segs = Vec::new();
+    let key = |u: f64, v: f64| {
+        (
+            ((u - d.u0) / cell).floor() as i64,
+            ((v - d.v0) / cell).floor() as i64,
+        )
+    };
+    let mut visited = std::collections::HashSet::new();
+    let correct = |mut u: f64, mut v: f64| -> Option<ScreenSample> {
+        for _ in 0..12 {
+            let s = sc.eval(u, v)?;
+            let (gv, gu, gvv) = g(&s);
+            let n2 = gu * gu + gvv * gvv;
+            if n2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                return None;
+            }
+            let (du, dv) = (-gv * gu / n2, -gv * gvv / n2);
+            if du.abs().max(dv.abs()) > cell {
+                return None;
+            }
+            u += du;
+            v += dv;
+            if !d.contains(u, v) {
+                return None;
+            }
+            if du.abs().max(dv.abs()) < 1e-12 * cell {
+                return sc.eval(u, v);
+            }
+        }
+        let s = sc.eval(u, v)?;
+        (g(&s).0.abs() < 1e-6 * (1.0 + g(&s).1.abs() + g(&s).2.abs()) * cell).then_some(s)
+    };
+    for &(u0, v0) in starts {
+        if visited.contains(&key(u0, v0)) {
+            continue;
+        }
+        let Some(s0) = correct(u0, v0) else { continue };
+        let mut mine = Vec::new();
+        for dir in [1.0, -1.0] {
+            let mut q = s0;
+            for step in 0..4000 {
+                mine.push(key(q.u, q.v));
+                if q.y.abs() > 8.0 * image_h {
+                    break;
+                }
+                let (_, gu, gv) = g(&q);
+                let l = gu.hypot(gv);
+                if l.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    break;
+                }
+                let (tu, tv) = (-dir * gv / l, dir * gu / l);
+                let ydot = (q.yu * tu + q.yv * tv).abs();
+                let mut h = (0.5 * cell).min(if ydot > 0.0 {
+                    2.0 / ydot
+                } else {
+                    f64::INFINITY
+                });
+                let mut next = None;
+                for _ in 0..20 {
+                    let (pu, pv) = (q.u + h * tu, q.v + h * tv);
+                    if d.contains(pu, pv) {
+                        if let Some(n) = correct(pu, pv) {
+                            let moved = (n.u - q.u).hypot(n.v - q.v);
+                            if moved > 0.0 && moved <= 2.0 * h && (n.y - q.y).abs() <= 4.0 {
+                                next = Some(n);
+                                break;
+                            }
+                        }
+                    }
+                    h *= 0.5;
+                }
+                let Some(n) = next else { break };
+                segs.push(Seg {
+                    a: (q.u, q.v),
+                    b: (n.u, n.v),
+                    ya: q.y,
+                    yb: n.y,
+                });
+                q = n;
+                // Joined a part traced from an earlier start, or closed a loop.
+                let closed = step > 4 && (q.u - s0.u).abs().max((q.v - s0.v).abs()) < h;
+                if visited.contains(&key(q.u, q.v)) || closed {
+                    break;
+                }
+            }
+        }
+        visited.extend(mine);
+    }
+    segs
+}
+
+impl Net {
+    /// Sample the patch on an n×n grid and each edge at `m` points.
+    pub fn build(sc: &Screen<'_>, n: usize, m: usize, x_left: f64) -> Net {
+        let d = sc.dom;
+        let n = n.max(3);
+        let mut us = Vec::with_capacity(n * n);
+        let mut vs = Vec::with_capacity(n * n);
+        for k in 0..n {
+            for i in 0..n {
+                us.push(d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64);
+                vs.push(d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64);
+            }
+        }
+        let ss = sc.eval_batch(&us, &vs);
+        let y: Vec<f64> = ss.iter().map(|s| s.map_or(f64::NAN, |s| s.y)).collect();
+        let j: Vec<f64> = ss.iter().map(|s| s.map_or(f64::NAN, |s| s.jac())).collect();
+        let gx: Vec<f64> = ss
+            .iter()
+            .map(|s| s.map_or(f64::NAN, |s| s.x - x_left))
+            .collect();
+        let mut sil = march(n, &us, &vs, &j, &y);
+        let mut left = march(n, &us, &vs, &gx, &y);
+        // Follow each curve from its marching-squares crossings with exact
+        // y along it: where y varies fast (an eye close to the surface) the
+        // linear interpolation of a coarse cell is not good enough.
+        let cell = ((d.u1 - d.u0).max(d.v1 - d.v0)) / (n - 1) as f64;
+        let hmax = sc.cam.height as f64;
+        let gj = |s: &ScreenSample| {
+            let (ju, jv) = s.jac_grad();
+            (s.jac(), ju, jv)
+        };
+        let gl = |s: &ScreenSample| (s.x - x_left, s.xu, s.xv);
+        let starts_sil: Vec<(f64, f64)> = sil.iter().map(|g| g.a).collect();
+        let starts_left: Vec<(f64, f64)> = left.iter().map(|g| g.a).collect();
+        sil.extend(trace(sc, &gj, &starts_sil, cell, hmax));
+        left.extend(trace(sc, &gl, &starts_left, cell, hmax));
+        let m = m.max(3);
+        let edges = std::array::from_fn(|e| {
+            let (t0, t1) = if e < 2 { (d.v0, d.v1) } else { (d.u0, d.u1) };
+            let ts: Vec<f64> = (0..m)
+                .map(|k| t0 + (t1 - t0) * k as f64 / (m - 1) as f64)
+                .collect();
+            let (eu, ev): (Vec<f64>, Vec<f64>) =
+                ts.iter().map(|&t| edge_point(&d, e as u8, t)).unzip();
+            let ys = sc.eval_batch(&eu, &ev);
+            ts.into_iter()
+                .zip(ys)
+                .map(|(t, s)| (t, s.map_or(f64::NAN, |s| s.y)))
+                .collect()
+        });
+        // Extrema of y along the silhouette (curtain folds §3.4, and the
+        // stationary points of y it passes through): T = y_u J_v − y_v J_u
+        // changes sign along a silhouette segment.
+        let t: Vec<f64> = ss
+            .iter()
+            .map(|s| {
+                s.map_or(f64::NAN, |s| {
+                    let (ju, jv) = s.jac_grad();
+                    s.yu * jv - s.yv * ju
+                })
+            })
+            .collect();
+        let sil_peaks = march(n, &us, &vs, &j, &t)
+            .iter()
+            .filter(|s| (s.ya < 0.0) != (s.yb < 0.0))
+            .count();
+        Net {
+            edges,
+            sil,
+            left,
+            sil_peaks,
+        }
+    }
+
+    /// Seeds (kind, u, v) for every net crossing of scan line `ys`.
+    pub fn seeds(&self, d: &Domain, ys: f64, out: &mut Vec<(Kind, f64, f64)>) {
+        for (e, samples) in self.edges.iter().enumerate() {
+            for w in samples.windows(2) {
+                let ((t0, y0), (t1, y1)) = (w[0], w[1]);
+                if !(y0.is_finite() && y1.is_finite()) {
+                    continue;
+                }
+                if (y0 - ys) * (y1 - ys) <= 0.0 && y0 != y1 {
+                    let t = t0 + (t1 - t0) * (ys - y0) / (y1 - y0);
+                    let (u, v) = edge_point(d, e as u8, t);
+                    out.push((Kind::Edge(e as u8), u, v));
+                }
+            }
+        }
+        for (kind, segs) in [(Kind::Sil, &self.sil), (Kind::Left, &self.left)] {
+            for s in segs.iter() {
+                if (s.ya - ys) * (s.yb - ys) <= 0.0 && s.ya != s.yb {
+                    let t = (ys - s.ya) / (s.yb - s.ya);
+                    out.push((
+                        kind,
+                        s.a.0 + t * (s.b.0 - s.a.0),
+                        s.a.1 + t * (s.b.1 - s.a.1),
+                    ));
+                }
+            }
+        }
+    }
+}
+
+/// Context of the Y scan shared by a band.
+pub struct YScan<'a> {
+    pub sc: &'a Screen<'a>,
+    pub x_left: f64,
+    pub ext: f64,
+    pub extrapolate: bool,
+}
+
+impl<'a> YScan<'a> {
+    pub fn new(sc: &'a Screen<'a>, x_left: f64, extrapolate: bool) -> Self {
+        let d = sc.dom;
+        YScan {
+            sc,
+            x_left,
+            ext: (d.u1 - d.u0).max(d.v1 - d.v0),
+            extrapolate,
+        }
+    }
+
+    /// Size in pixels of a parameter step (du, dv) at s.
+    #[inline]
+    fn px(&self, s: &ScreenSample, du: f64, dv: f64) -> f64 {
+        let dx = s.xu * du + s.xv * dv;
+        let dy = s.yu * du + s.yv * dv;
+        dx.abs().max(dy.abs())
+    }
+
+    /// Newton for a tracker of `kind` on scan line `ys` from (u, v). Returns
+    /// the solution and the number of corrections made (and how many were
+    /// larger than 0.1 px).
+    pub fn solve(&self, kind: Kind, u: f64, v: f64, ys: f64) -> Option<(ScreenSample, u32, u32)> {
+        let d = self.sc.dom;
+        let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
+        if let Kind::Edge(e) = kind {
+            let p = match e {
+                0 => (d.u0, v),
+                1 => (d.u1, v),
+                2 => (u, d.v0),
+                _ => (u, d.v1),
+            };
+            u = p.0;
+            v = p.1;
+        }
+        let mut big = 0u32;
+        for iters in 0..30u32 {
+            let s = self.sc.eval(u, v)?;
+            let f = s.y - ys;
+            let (du, dv) = match kind {
+                Kind::Edge(e) => {
+                    if e < 2 {
+                        (0.0, -f / s.yv)
+                    } else {
+                        (-f / s.yu, 0.0)
+                    }
+                }
+                Kind::Sil | Kind::Left => {
+                    let (g, gu, gv) = if kind == Kind::Sil {
+                        let (ju, jv) = s.jac_grad();
+                        (s.jac(), ju, jv)
+                    } else {
+                        (s.x - self.x_left, s.xu, s.xv)
+                    };
+                    // Blinn §3.2.1: u −= (F G_v − F_v G)/det, v −= (F_u G − F G_u)/det.
+                    let det = s.yu * gv - s.yv * gu;
+                    (-(f * gv - s.yv * g) / det, -(s.yu * g - f * gu) / det)
+                }
+            };
+            if !(du.is_finite() && dv.is_finite()) {
+                return None;
+            }
+            let step_px = self.px(&s, du, dv);
+            let small = du.abs().max(dv.abs()) <= 1e-13 * self.ext;
+            if step_px < 1e-9 || small {
+                // Converged: the remaining correction is negligible.
+                if f.abs() > 1e-6 {
+                    return None;
+                }
+                return Some((s, iters, big));
+            }
+            // Failure to converge (§3.2.3): a wild step.
+            if du.abs().max(dv.abs()) > 0.3 * self.ext {
+                return None;
+            }
+            if step_px >= 0.1 {
+                big += 1;
+            }
+            let (nu, nv) = (u + du, v + dv);
+            // Silhouette and border trackers leave through the patch edges.
+            let slack = 1e-9 * self.ext;
+            if nu < d.u0 - slack || nu > d.u1 + slack || nv < d.v0 - slack || nv > d.v1 + slack {
+                // Allow one clamped step before giving up (solution on the edge).
+                let (cu, cv) = (nu.clamp(d.u0, d.u1), nv.clamp(d.v0, d.v1));
+                if (cu, cv) == (u, v) {
+                    return None;
+                }
+                u = cu;
+                v = cv;
+            } else {
+                u = nu.clamp(d.u0, d.u1);
+                v = nv.clamp(d.v0, d.v1);
+            }
+        }
+        None
+    }
+
+    /// Advance all trackers to scan line `ys` and create new ones; `first`
+    /// marks the first scan line of a band (no previous trackers).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &self,
+        trackers: &mut Vec<Tracker>,
+        ys: f64,
+        first: bool,
+        maxima: &[Maximum],
+        net: &Net,
+        seeds: &mut Vec<(Kind, f64, f64)>,
+        st: &mut YStats,
+    ) {
+        let d = self.sc.dom;
+        let old = std::mem::take(trackers);
+        let mut out: Vec<Tracker> = Vec::with_capacity(old.len() + 8);
+        let tol = 1e-7 * self.ext;
+        let same = |a: &Tracker, kind: Kind, s: &ScreenSample| {
+            a.kind == kind && (a.s.u - s.u).abs() <= tol && (a.s.v - s.v).abs() <= tol
+        };
+        // §3.2.1 update with the §3.5 extrapolation.
+        for t in old {
+            let (mut gu, mut gv) = (t.s.u, t.s.v);
+            if self.extrapolate {
+                if let Some((pu, pv)) = t.prev {
+                    gu = 2.0 * t.s.u - pu;
+                    gv = 2.0 * t.s.v - pv;
+                }
+            }
+            st.updates += 1;
+            let mut r = self.solve(t.kind, gu, gv, ys);
+            if r.is_none() && (gu, gv) != (t.s.u, t.s.v) {
+                r = self.solve(t.kind, t.s.u, t.s.v, ys);
+            }
+            match r {
+                Some((s, it, big)) => {
+                    st.iters += it as u64;
+                    st.iters_blinn += big as u64;
+                    if out.iter().any(|o| same(o, t.kind, &s)) {
+                        continue; // two trackers met (a minimum): keep one
+                    }
+                    // §3.2.2.3 folded edge: J changed sign along a boundary tracker.
+                    if let Kind::Edge(_) = t.kind {
+                        if (s.jac() < 0.0) != (t.s.jac() < 0.0) {
+                            if let Some((fs, _, _)) = self.solve(Kind::Sil, s.u, s.v, ys) {
+                                if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                                    st.created_fold += 1;
+                                    out.push(Tracker {
+                                        kind: Kind::Sil,
+                                        s: fs,
+                                        prev: None,
+                                    });
+                                }
+                            }
+                        }
+                    }
+                    out.push(Tracker {
+                        kind: t.kind,
+                        s,
+                        prev: Some((t.s.u, t.s.v)),
+                    });
+                }
+                None => {
+                    let inside = d.contains(gu, gv);
+                    if t.kind == Kind::Sil && !inside {
+                        st.exited += 1;
+                    } else {
+                        st.lost += 1;
+                    }
+                }
+            }
+        }
+        // §3.2.2.2 creation at maxima passed (and kept alive for a few scan
+        // lines while the new level curve is smaller than the net's cells).
+        for m in maxima {
+            let dy = m.y - ys;
+            if !(0.0..8.0).contains(&dy) {
+                continue;
+            }
+            let mut cands: Vec<(Kind, f64, f64)> = Vec::new();
+            match m.kind {
+                MaxKind::Interior => {
+                    // Level curve ≈ ellipse ½ΔᵀHΔ = ys − y_m; silhouette ≈ line ∇J·Δ = 0.
+                    let (ju, jv) = m.s.jac_grad();
+                    let l = ju.hypot(jv);
+                    if l > 0.0 {
+                        let (wu, wv) = (-jv / l, ju / l);
+                        let q = m.s.yuu * wu * wu + 2.0 * m.s.yuv * wu * wv + m.s.yvv * wv * wv;
+                        if q < 0.0 {
+                            let a = (2.0 * (ys - m.y) / q).sqrt();
+                            cands.push((Kind::Sil, m.u + a * wu, m.v + a * wv));
+                            cands.push((Kind::Sil, m.u - a * wu, m.v - a * wv));
+                        }
+                    }
+                }
+                MaxKind::Edge(e) => {
+                    let ytt = if e < 2 { m.s.yvv } else { m.s.yuu };
+                    if ytt < 0.0 {
+                        let a = (2.0 * (ys - m.y) / ytt).sqrt();
+                        for sgn in [-1.0, 1.0] {
+                            let (u, v) = if e < 2 {
+                                (m.u, m.v + sgn * a)
+                            } else {
+                                (m.u + sgn * a, m.v)
+                            };
+                            cands.push((Kind::Edge(e), u, v));
+                        }
+                    }
+                }
+                MaxKind::Corner(eu, ev) => {
+                    // Along edge eu (u fixed) v moves; along ev (v fixed) u moves.
+                    if m.s.yv != 0.0 {
+                        cands.push((Kind::Edge(eu), m.u, m.v + (ys - m.y) / m.s.yv));
+                    }
+                    if m.s.yu != 0.0 {
+                        cands.push((Kind::Edge(ev), m.u + (ys - m.y) / m.s.yu, m.v));
+                    }
+                }
+            }
+            for (kind, u, v) in cands {
+                if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
+                    if !out.iter().any(|o| same(o, kind, &s)) {
+                        st.created_maxima += 1;
+                        out.push(Tracker {
+                            kind,
+                            s,
+                            prev: None,
+                        });
+                    }
+                }
+            }
+        }
+        // Safety net.
+        seeds.clear();
+        net.seeds(&d, ys, seeds);
+        for &(kind, u, v) in seeds.iter() {
+            if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
+                if !out.iter().any(|o| same(o, kind, &s)) {
+                    if first {
+                        st.band_seeds += 1;
+                    } else {
+                        st.net_added += 1;
+                    }
+                    out.push(Tracker {
+                        kind,
+                        s,
+                        prev: None,
+                    });
+                }
+            }
+        }
+        // A fixed order, whatever happened before.
+        out.sort_by(|a, b| a.s.x.total_cmp(&b.s.x).then(a.s.u.total_cmp(&b.s.u)));
+        *trackers = out;
+    }
+}
