@@ -212,10 +212,15 @@ def render_height(
     method: Literal["floating_column", "floating_horizon"],
     outputs: str | tuple[str, ...] | list[str],
     options: dict[str, Any] | None = None,
+) -> dict[str, Any]: ...
+
 # parametric scan line (Blinn 1978)
 
 def render_parametric(
     surface: Parametric | Literal["sphere", "torus", "monkey_saddle", "helicoid", "enneper", "bezier"],
+    view: View,
+    width: int,
+    height: int,
     method: Literal["scanline"],
     outputs: str | Sequence[str],
     options: Mapping[str, Any] | None = None,
