@@ -19,7 +19,7 @@ impl Domain {
         if !(u0.is_finite() && u1.is_finite() && v0.is_finite() && v1.is_finite()) {
             return Err(FcolError::value("domain", "bounds must be finite"));
         }
-        if !(u0 < u1) || !(v0 < v1) {
+        if u0 >= u1 || v0 >= v1 {
             return Err(FcolError::value(
                 "domain",
                 format!("expected ((u0, u1), (v0, v1)) with u0 < u1 and v0 < v1, got (({u0}, {u1}), ({v0}, {v1}))"),

@@ -148,7 +148,7 @@ impl PyView {
     }
 
     /// The unit vectors (d, r, up): view direction, screen right, screen up.
-    fn basis(&self) -> ((f64, f64, f64), (f64, f64, f64), (f64, f64, f64)) {
+    fn basis(&self) -> (Vec3, Vec3, Vec3) {
         let (d, r, u) = self.view.basis();
         ((d.x, d.y, d.z), (r.x, r.y, r.z), (u.x, u.y, u.z))
     }
@@ -162,7 +162,7 @@ impl PyView {
         points: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
         width: usize,
         height: usize,
-    ) -> PyResult<(Bound<'py, PyArrayDyn<f64>>, Bound<'py, PyArrayDyn<f64>>)> {
+    ) -> PyResult<ArrayPair<'py, PyArrayDyn<f64>>> {
         let (rows, cols, _) = self.project_all(&points, width, height)?;
         Ok((rows.into_pyarray(py), cols.into_pyarray(py)))
     }
@@ -188,7 +188,7 @@ impl PyView {
         py: Python<'py>,
         width: usize,
         height: usize,
-    ) -> PyResult<(Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>)> {
+    ) -> PyResult<ArrayPair<'py, PyArray3<f64>>> {
         let cam = self.camera(width, height)?;
         let mut o = Vec::with_capacity(3 * width * height);
         let mut d = Vec::with_capacity(3 * width * height);
@@ -225,6 +225,12 @@ impl PyView {
             .unwrap_or(false)
     }
 }
+
+/// A world vector as Python sees it.
+type Vec3 = (f64, f64, f64);
+
+/// Two NumPy arrays returned together.
+type ArrayPair<'py, A> = (Bound<'py, A>, Bound<'py, A>);
 
 type Triple = (ArrayD<f64>, ArrayD<f64>, ArrayD<f64>);
 
