@@ -47,12 +47,15 @@ def _int(name: str, x: object) -> int:
     if isinstance(x, (bool, np.bool_)):
         raise TypeError(f"{name}: expected an integer pixel coordinate, got a bool")
     try:
-        return operator.index(x)  # type: ignore[arg-type]
+        v = operator.index(x)  # type: ignore[arg-type]
     except TypeError:
         raise TypeError(
             f"{name}: expected an integer pixel coordinate, got {type(x).__name__} {x!r}; "
             "round it first (e.g. int(round(x)))"
         ) from None
+    if not -(2**63) <= v < 2**63:
+        raise ValueError(f"{name}: {v} is outside the 64-bit coordinate range")
+    return v
 
 
 def _real_array(name: str, x: npt.ArrayLike, dtype: type = np.float64) -> np.ndarray:

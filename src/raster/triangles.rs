@@ -328,7 +328,9 @@ pub fn triangles(
     }
 
     let n = width * height;
-    let mut depth = vec![f64::NAN; n];
+    // The depth buffer holds the z-buffer key while rasterising (depth, or
+    // −1/depth when perspective-correct: smaller is nearer), +inf for none.
+    let mut depth = vec![f64::INFINITY; n];
     let mut face = vec![-1i32; n];
     let persp = opt.perspective_correct;
     depth
@@ -337,10 +339,9 @@ pub fn triangles(
         .zip(bins.par_iter())
         .enumerate()
         .try_for_each(|(band, ((dbuf, fbuf), bin))| -> Result<()> {
-            // The z-buffer holds q (depth, or 1/depth: larger is nearer).
-            let mut zb = vec![f64::INFINITY; dbuf.len()];
+            let zb = dbuf;
             let row0 = band * BAND;
-            let rows = dbuf.len() / width;
+            let rows = zb.len() / width;
             for (count, &k) in bin.iter().enumerate() {
                 if count % 4096 == 4095 {
                     cancel.check()?;
@@ -370,10 +371,14 @@ pub fn triangles(
                     }
                 }
             }
-            for (d, &z) in dbuf.iter_mut().zip(&zb) {
-                if z.is_finite() {
-                    *d = if persp { -1.0 / z } else { z };
-                }
+            for z in zb.iter_mut() {
+                *z = if *z == f64::INFINITY {
+                    f64::NAN
+                } else if persp {
+                    -1.0 / *z
+                } else {
+                    *z
+                };
             }
             Ok(())
         })?;
