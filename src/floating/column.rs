@@ -69,16 +69,16 @@ pub struct Ctx<'a> {
 
 /// Covered rows of a column: disjoint closed intervals, sorted.
 #[derive(Debug, Default)]
-struct Coverage {
+pub(super) struct Coverage {
     iv: Vec<(f64, f64)>,
 }
 
 impl Coverage {
     #[inline]
-    fn contains(&self, x: f64) -> bool {
+    pub(super) fn contains(&self, x: f64) -> bool {
         self.iv.iter().any(|&(a, b)| x >= a && x <= b)
     }
-    fn add(&mut self, lo: f64, hi: f64) {
+    pub(super) fn add(&mut self, lo: f64, hi: f64) {
         // In place (no allocation in the common case of one interval).
         let mut first: Option<usize> = None;
         let mut k = 0;
@@ -107,7 +107,7 @@ impl Coverage {
         }
     }
     /// Distance of x inside its covered interval (0 when not covered).
-    fn depth(&self, x: f64) -> f64 {
+    pub(super) fn depth(&self, x: f64) -> f64 {
         self.iv
             .iter()
             .find(|&&(a, b)| x >= a && x <= b)
@@ -115,10 +115,10 @@ impl Coverage {
             .unwrap_or(0.0)
     }
     /// The covered interval holding x.
-    fn interval(&self, x: f64) -> Option<(f64, f64)> {
+    pub(super) fn interval(&self, x: f64) -> Option<(f64, f64)> {
         self.iv.iter().copied().find(|&(a, b)| x >= a && x <= b)
     }
-    fn covers(&self, lo: f64, hi: f64) -> bool {
+    pub(super) fn covers(&self, lo: f64, hi: f64) -> bool {
         self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)
     }
 }

@@ -205,7 +205,7 @@ struct RadialSweep<'c, 'a> {
     rays: &'c [Ray],
     done: Vec<bool>,
     /// Covered θ intervals.
-    cov: Vec<(f64, f64)>,
+    cov: super::column::Coverage,
     out: Vec<(usize, Pixel)>,
     stats: ColumnStats,
     jobs: Vec<super::refine::Job>,
@@ -222,7 +222,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             eh: DVec2::new(phi.cos(), phi.sin()),
             rays,
             done: vec![false; rays.len()],
-            cov: Vec::new(),
+            cov: Default::default(),
             out: Vec::new(),
             stats: ColumnStats::default(),
             jobs: Vec::new(),
@@ -231,21 +231,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    fn depth(&self, x: f64) -> f64 {
-        self.cov
-            .iter()
-            .find(|&&(a, b)| x >= a && x <= b)
-            .map(|&(a, b)| (x - a).min(b - x))
-            .unwrap_or(0.0)
-    }
-
     fn hidden(&self, a: &Sample, b: &Sample) -> bool {
-        let Some((lo, hi)) = self
-            .cov
-            .iter()
-            .copied()
-            .find(|&(l, h)| a.rho >= l && a.rho <= h)
-        else {
+        let Some((lo, hi)) = self.cov.interval(a.rho) else {
             return false;
         };
         let (lo, hi) = (lo + 1.0, hi - 1.0);
@@ -254,39 +241,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
         let dt = b.t - a.t;
         super::column::hermite_inside(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt, lo, hi)
-    }
-
-    fn covered(&self, x: f64) -> bool {
-        self.cov.iter().any(|&(a, b)| x >= a && x <= b)
-    }
-
-    fn add(&mut self, lo: f64, hi: f64) {
-        // In place (no allocation in the common case of one interval).
-        let mut first: Option<usize> = None;
-        let mut k = 0;
-        while k < self.cov.len() {
-            let (a, b) = self.cov[k];
-            if b < lo || a > hi {
-                k += 1;
-                continue;
-            }
-            match first {
-                None => {
-                    self.cov[k] = (a.min(lo), b.max(hi));
-                    first = Some(k);
-                    k += 1;
-                }
-                Some(f) => {
-                    let (fa, fb) = self.cov[f];
-                    self.cov[f] = (fa.min(a), fb.max(b));
-                    self.cov.remove(k);
-                }
-            }
-        }
-        if first.is_none() {
-            let pos = self.cov.partition_point(|&(a, _)| a < lo);
-            self.cov.insert(pos, (lo, hi));
-        }
     }
 
     /// The surface sample at horizontal distance ρ (None: hole).
@@ -380,7 +334,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut prev = self.sample(r0);
         let mut rho = r0;
         if let Some(a) = prev {
-            self.add(a.rho, a.rho);
+            self.cov.add(a.rho, a.rho);
         }
         let mut steps = 0usize;
         while rho < r1 && steps < 4_000_000 {
@@ -389,7 +343,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 Some(a) => {
                     let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
-                    let deep = self.depth(a.rho) > 2.0 * opts.step;
+                    let deep = self.cov.depth(a.rho) > 2.0 * opts.step;
                     let hs = if !deep && r > 0.0 && r.is_finite() {
                         (opts.step / r).min(cap)
                     } else {
@@ -432,7 +386,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         prev = Some(b);
                     }
                     (None, Some(b)) => {
-                        self.add(b.rho, b.rho);
+                        self.cov.add(b.rho, b.rho);
                         prev = Some(b);
                     }
                     (_, None) => prev = None,
@@ -441,7 +395,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 break;
             }
             // Early exit (§4.2): every ray of the bin is covered.
-            if self.cov.iter().any(|&(a, b)| a <= th_lo && b >= th_hi) {
+            if self.cov.covers(th_lo, th_hi) {
                 self.stats.early_exit += 1;
                 break;
             }
@@ -525,7 +479,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut k = start;
         while k < self.rays.len() && self.rays[k].theta * self.ppr <= hi {
             let th = self.rays[k].theta * self.ppr;
-            if !self.done[k] && !self.covered(th) {
+            if !self.done[k] && !self.cov.contains(th) {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let w = self.ctx.cam.width;
@@ -536,7 +490,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
             k += 1;
         }
-        self.add(lo, hi);
+        self.cov.add(lo, hi);
     }
 
     fn pixel(&mut self, a: &Sample, b: &Sample, dir: DVec3, th: f64, wall: bool) -> Pixel {

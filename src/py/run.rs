@@ -50,6 +50,18 @@ where
     T: Send,
     F: FnOnce(&Cancel) -> Result<T> + Send,
 {
+    cancellable_polled(py, |_| Ok(()), f)
+}
+
+/// Like [`cancellable`], and calls `poll` with the GIL held between the
+/// 50 ms waits (e.g. to report progress to a Python callback). An error from
+/// `poll` cancels the computation and is raised.
+pub fn cancellable_polled<T, F, P>(py: Python<'_>, mut poll: P, f: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce(&Cancel) -> Result<T> + Send,
+    P: FnMut(Python<'_>) -> PyResult<()>,
+{
     let cancel = Cancel::new();
     std::thread::scope(|s| {
         let (tx, rx) = mpsc::channel();
@@ -72,53 +84,9 @@ where
                 Ok(Ok(r)) => return r.map_err(PyErr::from),
                 Ok(Err(p)) => return Err(internal_error(p)),
                 Err(mpsc::RecvTimeoutError::Timeout) => {
-                    if let Err(e) = py.check_signals() {
-                        cancel.cancel();
-                        // Wait for the worker to notice, then raise.
-                        let _ = py.detach(|| recv(None));
-                        return Err(e);
-                    }
-                }
-                Err(mpsc::RecvTimeoutError::Disconnected) => {
-                    return Err(PyRuntimeError::new_err("fcol worker thread vanished"))
-                }
-            }
-        }
-    })
-}
-
-/// Like [`cancellable`], and calls `poll` with the GIL held between the
-/// 50 ms waits (e.g. to report progress to a Python callback). An error from
-/// `poll` cancels the computation and is raised.
-pub fn cancellable_polled<T, F, P>(py: Python<'_>, mut poll: P, f: F) -> PyResult<T>
-where
-    T: Send,
-    F: FnOnce(&Cancel) -> Result<T> + Send,
-    P: FnMut(Python<'_>) -> PyResult<()>,
-{
-    let cancel = Cancel::new();
-    std::thread::scope(|s| {
-        let (tx, rx) = mpsc::channel();
-        let rx = Mutex::new(rx);
-        let recv = |timeout: Option<Duration>| {
-            let rx = rx.lock().unwrap_or_else(|p| p.into_inner());
-            match timeout {
-                Some(t) => rx.recv_timeout(t),
-                None => rx.recv().map_err(|_| mpsc::RecvTimeoutError::Disconnected),
-            }
-        };
-        let cancel_ref = &cancel;
-        s.spawn(move || {
-            let r = catch_unwind(AssertUnwindSafe(|| f(cancel_ref)));
-            let _ = tx.send(r);
-        });
-        loop {
-            match py.detach(|| recv(Some(Duration::from_millis(50)))) {
-                Ok(Ok(r)) => return r.map_err(PyErr::from),
-                Ok(Err(p)) => return Err(internal_error(p)),
-                Err(mpsc::RecvTimeoutError::Timeout) => {
                     if let Err(e) = py.check_signals().and_then(|_| poll(py)) {
                         cancel.cancel();
+                        // Wait for the worker to notice, then raise.
                         let _ = py.detach(|| recv(None));
                         return Err(e);
                     }
