@@ -158,7 +158,8 @@ fn render_parametric_py<'py>(
     o.finish("render(method=\"scanline\")")?;
     let v = view.view;
     let t0 = std::time::Instant::now();
-    let b = run::cancellable(py, |cancel| {
+    let abort = || super::surfaces::abort_callables(surface);
+    let b = run::cancellable_aborting(py, abort, |cancel| {
         parametric::render(surf.as_ref(), &v, w, h, &outputs, &shading, &opts, cancel)
     });
     // An exception raised by a Python callable behind the surface wins.

@@ -151,7 +151,8 @@ fn render_height<'py>(
     crate::error::check_size(width, height)?;
     let field = super::surfaces::height_field_from_py(surface)?;
     let t0 = Instant::now();
-    let buf = run::cancellable(py, |cancel| {
+    let abort = || super::surfaces::abort_callables(surface);
+    let buf = run::cancellable_aborting(py, abort, |cancel| {
         let f: &dyn HeightField = &*field;
         if horizon {
             floating::render_floating_horizon(
@@ -162,10 +163,12 @@ fn render_height<'py>(
                 f, &view, width, height, &outputs, &shading, &fopts, cancel,
             )
         }
-    })?;
+    });
     let elapsed = t0.elapsed().as_secs_f64();
+    // An exception raised by a Python callable behind the surface wins; it
+    // is taken (and the callable reset) whether or not the core failed.
     super::surfaces::check_surface_errors(surface)?;
-    buffers_to_dict(py, buf, elapsed)
+    buffers_to_dict(py, buf?, elapsed)
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -53,14 +53,37 @@ where
     cancellable_polled(py, |_| Ok(()), f)
 }
 
+/// Like [`cancellable`], and calls `abort` as soon as Ctrl-C is seen, before
+/// waiting for the core to stop: renderers use it to make Python callables
+/// behind a surface stop calling back into Python, so the core reaches its
+/// next cancellation check quickly however slow the callable is.
+pub fn cancellable_aborting<T, F, A>(py: Python<'_>, abort: A, f: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce(&Cancel) -> Result<T> + Send,
+    A: FnOnce(),
+{
+    run_cancellable(py, |_| Ok(()), abort, f)
+}
+
 /// Like [`cancellable`], and calls `poll` with the GIL held between the
 /// 50 ms waits (e.g. to report progress to a Python callback). An error from
 /// `poll` cancels the computation and is raised.
-pub fn cancellable_polled<T, F, P>(py: Python<'_>, mut poll: P, f: F) -> PyResult<T>
+pub fn cancellable_polled<T, F, P>(py: Python<'_>, poll: P, f: F) -> PyResult<T>
 where
     T: Send,
     F: FnOnce(&Cancel) -> Result<T> + Send,
     P: FnMut(Python<'_>) -> PyResult<()>,
+{
+    run_cancellable(py, poll, || {}, f)
+}
+
+fn run_cancellable<T, F, P, A>(py: Python<'_>, mut poll: P, abort: A, f: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce(&Cancel) -> Result<T> + Send,
+    P: FnMut(Python<'_>) -> PyResult<()>,
+    A: FnOnce(),
 {
     let cancel = Cancel::new();
     std::thread::scope(|s| {
@@ -86,6 +109,7 @@ where
                 Err(mpsc::RecvTimeoutError::Timeout) => {
                     if let Err(e) = py.check_signals().and_then(|_| poll(py)) {
                         cancel.cancel();
+                        abort();
                         // Wait for the worker to notice, then raise.
                         let _ = py.detach(|| recv(None));
                         return Err(e);

@@ -278,6 +278,12 @@ impl PyCallables {
         self.failed.load(Ordering::Relaxed)
     }
 
+    /// Stop calling Python for the rest of this render (Ctrl-C): later
+    /// batches are holes, and no error is recorded.
+    fn abort(&self) {
+        self.failed.store(true, Ordering::Relaxed);
+    }
+
     fn take_error(&self) -> Option<PyErr> {
         self.failed.store(false, Ordering::Relaxed);
         self.error.lock().unwrap_or_else(|p| p.into_inner()).take()
@@ -1477,6 +1483,22 @@ pub fn parametric_from_py(obj: &Bound<'_, PyAny>) -> PyResult<DynParam> {
         "surface: expected fcol.Parametric, got {}",
         type_name(obj)
     )))
+}
+
+/// Make the Python callables behind `surface` (if any) stop calling back
+/// into Python until the render ends: called on Ctrl-C, so that a slow
+/// callable does not delay the core's next cancellation check.
+/// [`check_surface_errors`] clears it.
+pub fn abort_callables(obj: &Bound<'_, PyAny>) {
+    if let Ok(f) = obj.cast::<PyFunction>() {
+        if let FnKind::Call(h) = &f.get().kind {
+            h.c.abort();
+        }
+    } else if let Ok(p) = obj.cast::<PyParametric>() {
+        if let ParKind::Call(s) = &p.get().kind {
+            s.c.abort();
+        }
+    }
 }
 
 /// Re-raise the first exception a Python callable behind `surface` raised
