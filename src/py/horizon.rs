@@ -350,13 +350,15 @@ fn horizon_sky<'py>(
         "sky_view_factor" => Q::Svf,
         "illumination" => Q::Illum,
         "radiosity" => Q::Rad,
-        other => return Err(FcolError::value(
-            "quantity",
-            format!(
+        other => {
+            return Err(FcolError::value(
+                "quantity",
+                format!(
                 "expected \"sky_view_factor\", \"illumination\" or \"radiosity\", got {other:?}"
             ),
-        )
-        .into()),
+            )
+            .into())
+        }
     };
     if !matches!(q, Q::Svf) && table.is_none() {
         return Err(FcolError::value("sky", "a table is required").into());
