@@ -518,7 +518,8 @@ def shade_terrain(
     ``spacing`` and ``horizon_options`` (see :func:`horizon_map`). Buffers:
     rgb, intensity, depth (−w: the camera looks down from above the target
     (0, 0, 0)), normal, uv, side, mask. The (H, W) intensity in grid order,
-    usable as a texture, is ``HorizonMap.sun(...)`` / ``sky_view_factor()``.
+    usable as ``fcol.render(..., texture=...)`` of a ``HeightGrid`` of the
+    same z and extent, is ``HorizonMap.sun(...)`` / ``sky_view_factor()``.
 
     >>> import numpy as np, fcol
     >>> z = np.add.outer(np.zeros(12), np.linspace(0, 3, 12))

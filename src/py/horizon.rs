@@ -300,7 +300,7 @@ impl<'py> SkyArgs<'py> {
     }
 }
 
-fn need<'a>(normals: Option<&'a [f64]>) -> crate::error::Result<&'a [f64]> {
+fn need(normals: Option<&[f64]>) -> crate::error::Result<&[f64]> {
     normals.ok_or_else(|| FcolError::value("normals", "are required"))
 }
 
