@@ -38,7 +38,7 @@
 use crate::cancel::Cancel;
 use crate::error::{FcolError, Result};
 use rayon::prelude::*;
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Number of equal-area elevation bands of a sky table (§VI-A).
 pub const BANDS: usize = 256;
@@ -185,14 +185,80 @@ impl SectorGeom {
         }
     }
 
-    /// Lower limit of the visible sky in sector i: the horizon or the
-    /// tangent plane at the centre azimuth, whichever is higher.
+    /// Lower limit e' of the visible sky in sector i, the horizon e or the
+    /// tangent plane at the centre azimuth, whichever is higher, with its
+    /// sine and cosine: (e', sin e', cos e'); NaN if either is NaN.
+    ///
+    /// The plane's elevation is atan t with t = −(N_u cos φ + N_v sin φ)/N_w,
+    /// so e > atan t ⇔ sin e > t cos e for |e| < π/2, and when the plane
+    /// wins sin and cos follow from t without more transcendentals.
     #[inline]
-    fn effective(&self, i: usize, e: f64, n: &[f64]) -> f64 {
+    fn effective(&self, i: usize, e: f64, n: &[f64]) -> (f64, f64, f64) {
         let nz = nan_max(n[2], 1e-12);
-        let plane = (-(n[0] * self.cos_c[i] + n[1] * self.sin_c[i]) / nz).atan();
-        nan_max(e, plane)
+        let t = -(n[0] * self.cos_c[i] + n[1] * self.sin_c[i]) / nz;
+        if e.is_nan() || t.is_nan() {
+            return (f64::NAN, f64::NAN, f64::NAN);
+        }
+        if e >= FRAC_PI_2 {
+            let (s, c) = sin_cos(e);
+            return (e, s, c);
+        }
+        if e > -FRAC_PI_2 {
+            let (s, c) = sin_cos(e);
+            if s > t * c {
+                return (e, s, c);
+            }
+        }
+        let q = 1.0 / (1.0 + t * t).sqrt();
+        (t.atan(), t * q, q)
     }
+}
+
+/// sin and cos of x by their Taylor series to x²¹ and x²² (truncation
+/// below 2e-18 for |x| ≤ 1.6, the range of elevations); libm beyond.
+#[inline]
+fn sin_cos(x: f64) -> (f64, f64) {
+    if x.abs() > 1.6 || x.is_nan() {
+        return (x.sin(), x.cos());
+    }
+    // (−1)^k/(2k+1)! and (−1)^k/(2k)!
+    const SIN: [f64; 11] = [
+        1.0 / 1.0,
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362880.0,
+        -1.0 / 39916800.0,
+        1.0 / 6227020800.0,
+        -1.0 / 1307674368000.0,
+        1.0 / 355687428096000.0,
+        -1.0 / 1.21645100408832e+17,
+        1.0 / 5.109094217170944e+19,
+    ];
+    const COS: [f64; 12] = [
+        1.0 / 1.0,
+        -1.0 / 2.0,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40320.0,
+        -1.0 / 3628800.0,
+        1.0 / 479001600.0,
+        -1.0 / 87178291200.0,
+        1.0 / 20922789888000.0,
+        -1.0 / 6402373705728000.0,
+        1.0 / 2.43290200817664e+18,
+        -1.0 / 1.1240007277776077e+21,
+    ];
+    let x2 = x * x;
+    let mut s = SIN[10];
+    for k in (0..10).rev() {
+        s = SIN[k] + x2 * s;
+    }
+    let mut c = COS[11];
+    for k in (0..11).rev() {
+        c = COS[k] + x2 * c;
+    }
+    (x * s, c)
 }
 
 /// Run `f(row, out_row)` over the rows in parallel, checking for Ctrl-C.
@@ -245,10 +311,10 @@ fn svf_row<T: Elevation>(
     let mut sy = vec![0.0; w];
     for i in 0..p.sectors {
         for (j, &e) in p.row(i, r).iter().enumerate() {
-            let e = g.effective(i, e.get(), &nrow[3 * j..3 * j + 3]);
-            let c = e.cos();
-            sz[j] += 0.5 * (c * c) * g.dphi;
-            let hh = PI / 4.0 - e / 2.0 - (2.0 * e).sin() / 4.0;
+            let (e, se, ce) = g.effective(i, e.get(), &nrow[3 * j..3 * j + 3]);
+            sz[j] += 0.5 * (ce * ce) * g.dphi;
+            // sin 2e = 2 sin e cos e
+            let hh = PI / 4.0 - e / 2.0 - (2.0 * se * ce) / 4.0;
             sx[j] += g.cx[i] * hh;
             sy[j] += g.cy[i] * hh;
         }
@@ -323,18 +389,22 @@ impl<'a> SkyTable<'a> {
         })
     }
 
-    /// (∫ L sinθ cosθ dθ dφ, ∫ L cos²θ dθ dφ / Δφ-free) of sector i above
-    /// elevation e (clipped to [0, π/2]; NaN: nothing).
+    /// (∫ L sinθ cosθ dθ dφ, ∫ L cos²θ dθ) of sector i above elevation e
+    /// (given with its sine and cosine; clipped to [0, π/2]; NaN: nothing).
     #[inline]
-    fn above(&self, i: usize, e: f64, dphi: f64) -> (f64, f64) {
-        let e = if e.is_nan() { PI / 2.0 } else { e };
-        let e = e.clamp(0.0, PI / 2.0);
-        let se = e.sin();
+    fn above(&self, i: usize, (e, se, ce): (f64, f64, f64), dphi: f64) -> (f64, f64) {
+        let (e, se, ce) = if e.is_nan() || e >= PI / 2.0 {
+            (PI / 2.0, 1.0, 0.0)
+        } else if e <= 0.0 {
+            (0.0, 0.0, 1.0)
+        } else {
+            (e, se, ce)
+        };
         let k = ((se * BANDS as f64) as usize).min(BANDS - 1);
         let l = self.table[i * BANDS + k];
         let m = BANDS + 1;
         let part_z = l * (self.hz[k + 1] - 0.5 * (se * se) * dphi);
-        let part_h = l * (self.hh[k + 1] - (e / 2.0 + (2.0 * e).sin() / 4.0));
+        let part_h = l * (self.hh[k + 1] - (e / 2.0 + (2.0 * se * ce) / 4.0));
         (
             self.tz[i * m + k + 1] + part_z,
             self.th[i * m + k + 1] + part_h,
@@ -356,8 +426,7 @@ fn illumination_row<T: Elevation>(
     for i in 0..p.sectors {
         for (j, &e) in p.row(i, r).iter().enumerate() {
             let n = &nrow[3 * j..3 * j + 3];
-            let e = g.effective(i, e.get(), n);
-            let (iz, ih) = sky.above(i, e, g.dphi);
+            let (iz, ih) = sky.above(i, g.effective(i, e.get(), n), g.dphi);
             out[j] += n[2] * iz + (n[0] * g.cx[i] + n[1] * g.cy[i]) * ih;
         }
     }
@@ -661,6 +730,19 @@ mod tests {
         let want = 0.3 * (i[0] / PI) / (1.0 - 0.3 * (1.0 - d[0]));
         assert!((r[0] - want).abs() < 1e-15);
         assert!(radiosity(&p, &n, &table, 1.0, &Cancel::new()).is_err());
+    }
+
+    #[test]
+    fn series_sin_cos_match_libm() {
+        let mut x = -1.6;
+        while x <= 1.6 {
+            let (s, c) = sin_cos(x);
+            assert!((s - x.sin()).abs() <= 4e-16, "sin {x}");
+            assert!((c - x.cos()).abs() <= 4e-16, "cos {x}");
+            x += 1.0 / 1024.0 + 1e-9;
+        }
+        let e = std::f32::consts::FRAC_PI_2 as f64; // an empty sector's −π/2 in f32
+        assert!((sin_cos(-e).1 - (-e).cos()).abs() <= 1e-16);
     }
 
     #[test]
