@@ -21,6 +21,7 @@ pub mod raster;
 pub mod shade;
 pub mod source;
 pub mod surface;
+pub mod texture;
 
 #[cfg(feature = "python")]
 mod py;

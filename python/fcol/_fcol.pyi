@@ -202,6 +202,25 @@ def horizon_points(
 def horizon_hull_stats(
     z: npt.NDArray[np.float64], du: float, dv: float, sectors: int, sector: int
 ) -> tuple[float, int]: ...
+def horizon_sky(
+    elevation: npt.NDArray[np.float32] | npt.NDArray[np.float64],
+    sectors: int,
+    z: npt.NDArray[np.float64],
+    normals: npt.NDArray[np.float64],
+    quantity: Literal["sky_view_factor", "illumination", "radiosity"],
+    table: npt.NDArray[np.float64] | None = None,
+    albedo: float = 0.5,
+) -> npt.NDArray[np.float64]: ...
+def horizon_sun(
+    elevation: npt.NDArray[np.float32] | npt.NDArray[np.float64],
+    sector_indices: list[int],
+    sectors: int,
+    z: npt.NDArray[np.float64],
+    sun_azimuth: float,
+    sun_elevation: float,
+    sun_radius: float,
+    normals: npt.NDArray[np.float64] | None = None,
+) -> npt.NDArray[np.float64]: ...
 # --- floating horizon and floating column (function surfaces) -------------
 
 def render_height(

@@ -204,16 +204,31 @@ class HorizonMap:
         self._normals.flags.writeable = False
         return self._normals
 
-    def _effective(self, normals: npt.NDArray[np.float64] | None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Per sector the lower limit of the visible sky: the horizon or the
-        point's own tangent plane at the sector's centre azimuth, whichever
-        is higher (and not below the horizontal plane's nadir)."""
-        e = self._full().astype(np.float64)
-        n = self.normals() if normals is None else np.asarray(normals, dtype=np.float64)
-        phi = self.azimuths[:, None, None]
-        nz = np.maximum(n[..., 2], 1e-12)[None]
-        plane = np.arctan(-(n[..., 0][None] * np.cos(phi) + n[..., 1][None] * np.sin(phi)) / nz)
-        return np.maximum(e, plane), n
+    # -- arguments of the native sky functions ---------------------------
+    def _planes(self) -> npt.NDArray[Any]:
+        e = self.elevation
+        if e.dtype not in (np.float32, np.float64):
+            e = e.astype(np.float64)
+        return np.ascontiguousarray(e)
+
+    def _heights(self) -> npt.NDArray[np.float64]:
+        return np.ascontiguousarray(self.z, dtype=np.float64)
+
+    def _normals_arg(self, normals: npt.ArrayLike | None) -> npt.NDArray[np.float64]:
+        if normals is None:
+            return np.ascontiguousarray(self.normals())
+        n = np.asarray(normals)
+        if not (np.issubdtype(n.dtype, np.number) or n.dtype == np.bool_) or np.iscomplexobj(n):
+            raise TypeError(f"normals: expected a real array, got dtype {n.dtype}")
+        if n.shape != self.z.shape + (3,):
+            raise ValueError(f"normals: expected shape {self.z.shape + (3,)}, got {n.shape}")
+        return np.ascontiguousarray(n, dtype=np.float64)
+
+    def _sky(self, quantity: str, normals: npt.ArrayLike | None, table: npt.NDArray[np.float64] | None = None, albedo: float = 0.5) -> npt.NDArray[np.float64]:
+        self._full()
+        t = None if table is None else np.ascontiguousarray(table, dtype=np.float64)
+        out = _fcol.horizon_sky(self._planes(), self.sectors, self._heights(), self._normals_arg(normals), quantity, t, float(albedo))
+        return out  # type: ignore[no-any-return]
 
     # -- sky light (§VI) --------------------------------------------------
     def sky_view_factor(self, normals: npt.NDArray[np.float64] | None = None) -> npt.NDArray[np.float64]:
@@ -221,20 +236,17 @@ class HorizonMap:
         D; Dozier and Frew's V_d): 1 on an open plane, NaN at no data.
 
         Each sector contributes in closed form over the elevations above
-        max(e_i, tangent plane)."""
+        max(e_i, the point's tangent plane at the sector's centre azimuth).
+        Computed per point in Rust (all cores, Ctrl-C interrupts), float64.
+
+        >>> import numpy as np, fcol
+        >>> hm = fcol.horizon_map(np.zeros((8, 8)), sectors=16)
+        >>> bool(np.allclose(hm.sky_view_factor(), 1.0))
+        True
+        """
         if normals is None and self._svf is not None:
             return self._svf.copy()
-        e, n = self._effective(normals)
-        s = self.sectors
-        phi0 = 2 * np.pi * np.arange(s) / s
-        phi1 = 2 * np.pi * (np.arange(s) + 1) / s
-        dphi = (2 * np.pi / s)
-        cx = (np.sin(phi1) - np.sin(phi0))[:, None, None]
-        cy = (np.cos(phi0) - np.cos(phi1))[:, None, None]
-        hz = 0.5 * np.cos(e) ** 2 * dphi
-        hh = (np.pi / 4 - e / 2 - np.sin(2 * e) / 4)
-        tot = n[..., 2] * hz.sum(0) + n[..., 0] * (cx * hh).sum(0) + n[..., 1] * (cy * hh).sum(0)
-        svf = np.asarray(tot / np.pi)
+        svf = self._sky("sky_view_factor", normals)
         if normals is None:
             self._svf = svf.copy()
         return svf
@@ -243,7 +255,7 @@ class HorizonMap:
         """The sky as an (s, 256) table of radiances over equal-area regions:
         sector i by the sine of the elevation in 256 equal steps (§VI-A). A
         callable ``sky(azimuth, elevation)`` (radians, vectorised) is sampled
-        at the regions' centres; an array must already have shape (s, 256)."""
+        once at the regions' centres; an array must already have shape (s, 256)."""
         s = self.sectors
         if callable(sky):
             az = (2 * np.pi * (np.arange(s) + 0.5) / s)[:, None] * np.ones((1, 256))
@@ -258,121 +270,86 @@ class HorizonMap:
             raise ValueError("sky: radiances must be finite and non-negative")
         return t
 
+    def _table(self, sky: Sky | npt.ArrayLike) -> npt.NDArray[np.float64]:
+        if not callable(sky) and np.ndim(sky) == 0:
+            sky = np.full((self.sectors, 256), float(sky))  # type: ignore[arg-type]
+        return self.sky_table(sky)
+
     def illumination(self, sky: Sky | npt.ArrayLike = 1.0, normals: npt.NDArray[np.float64] | None = None) -> npt.NDArray[np.float64]:
         """Direct primary illumination ∫_V L(u) N·u dΩ of every point for a
         sky of radiance L (a number: uniform sky; a callable of (azimuth,
-        elevation); or an (s, 256) table), regions partly under the horizon
-        counted in proportion. Uniform L = 1 gives π × the sky-view factor
-        (up to the sky below the horizontal, which this hemisphere omits)."""
-        if not callable(sky) and np.ndim(sky) == 0:
-            sky = np.full((self.sectors, 256), float(sky))  # type: ignore[arg-type]
-        table = self.sky_table(sky)
-        e, n = self._effective(normals)
-        s = self.sectors
-        th = np.arcsin(np.arange(257) / 256)  # region borders
-        hz = 0.5 * np.sin(th) ** 2 * (2 * np.pi / s)  # ∫ sinθ cosθ dθ dφ antiderivative
-        hh = th / 2 + np.sin(2 * th) / 4  # ∫ cos²θ dθ antiderivative
-        phi0 = 2 * np.pi * np.arange(s) / s
-        phi1 = 2 * np.pi * (np.arange(s) + 1) / s
-        cx = np.sin(phi1) - np.sin(phi0)
-        cy = np.cos(phi0) - np.cos(phi1)
-        # cumulative from the zenith down: T[i, k] = Σ_{k' ≥ k} L·moment
-        mz = table * np.diff(hz)[None]
-        mh = table * np.diff(hh)[None]
-        tz = np.concatenate([np.cumsum(mz[:, ::-1], 1)[:, ::-1], np.zeros((s, 1))], 1)
-        th_ = np.concatenate([np.cumsum(mh[:, ::-1], 1)[:, ::-1], np.zeros((s, 1))], 1)
-        out = np.zeros(self.z.shape)
-        for i in range(s):
-            ei = np.clip(np.nan_to_num(e[i], nan=np.pi / 2), 0.0, np.pi / 2)
-            k = np.minimum((np.sin(ei) * 256).astype(np.int64), 255)
-            part_z = table[i, k] * (hz[k + 1] - 0.5 * np.sin(ei) ** 2 * (2 * np.pi / s))
-            part_h = table[i, k] * (hh[k + 1] - (ei / 2 + np.sin(2 * ei) / 4))
-            iz = tz[i, k + 1] + part_z
-            ih = th_[i, k + 1] + part_h
-            out += n[..., 2] * iz + (n[..., 0] * cx[i] + n[..., 1] * cy[i]) * ih
-        out[~np.isfinite(self.z)] = np.nan
-        return out
+        elevation), sampled once on the (s, 256) regions; or an (s, 256)
+        table), regions partly under the horizon counted in proportion.
+        Uniform L = 1 gives π × the sky-view factor (up to the sky below the
+        horizontal, which this hemisphere omits). Per point in Rust, float64,
+        NaN at no data.
+
+        >>> import numpy as np, fcol
+        >>> hm = fcol.horizon_map(np.zeros((8, 8)), sectors=16)
+        >>> bool(np.allclose(hm.illumination(1.0), np.pi))
+        True
+        """
+        return self._sky("illumination", normals, self._table(sky))
 
     def radiosity(self, sky: Sky | npt.ArrayLike = 1.0, albedo: float = 0.5, normals: npt.NDArray[np.float64] | None = None) -> npt.NDArray[np.float64]:
         """Stewart–Langer approximate radiosity
         R = ρ·(I/π) / (1 − ρ(1 − D)) with I the direct primary illumination,
         D the sky-view factor and ρ the albedo (each point is assumed to see
-        terrain of its own radiance where the sky is hidden)."""
+        terrain of its own radiance where the sky is hidden).
+
+        >>> import numpy as np, fcol
+        >>> hm = fcol.horizon_map(np.zeros((8, 8)), sectors=16)
+        >>> bool(np.allclose(hm.radiosity(1.0, albedo=0.5), 0.5))
+        True
+        """
         if not 0.0 <= albedo < 1.0:
             raise ValueError(f"albedo: must lie in [0, 1), got {albedo}")
-        i = self.illumination(sky, normals)
-        d = self.sky_view_factor(normals)
-        return albedo * (i / np.pi) / (1.0 - albedo * (1.0 - d))
+        return self._sky("radiosity", normals, self._table(sky), albedo)
 
     # -- the sun ----------------------------------------------------------
+    def _sun(self, sun_azimuth: float, sun_elevation: float, sun_radius: float, normals: npt.NDArray[np.float64] | None) -> npt.NDArray[np.float64]:
+        args = {"sun_azimuth": sun_azimuth, "sun_elevation": sun_elevation, "sun_radius": sun_radius}
+        vals = []
+        for name, v in args.items():
+            try:
+                vals.append(float(v))
+            except (TypeError, ValueError):
+                raise TypeError(f"{name}: expected a number, got {type(v).__name__}") from None
+        out = _fcol.horizon_sun(self._planes(), [int(i) for i in self.sector_indices], self.sectors, self._heights(), *vals, normals)
+        return out  # type: ignore[no-any-return]
+
     def shadow(self, sun_azimuth: float, sun_elevation: float, sun_radius: float = 0.0) -> npt.NDArray[np.float64]:
         """Fraction of the sun visible from each point, in [0, 1] (1 = lit),
         NaN at no data. With ``sun_radius`` = 0 (radians) the sun is a point,
         lit when its elevation exceeds the horizon of the sector holding its
-        azimuth; otherwise the fraction of the disc's area above the
-        piecewise-constant horizon (the disc in the sun's local tangent plane
-        of azimuth × elevation). Only the sectors the disc covers are needed
-        (a ``sectors_subset`` horizon map will do)."""
-        for name, v in (("sun_azimuth", sun_azimuth), ("sun_elevation", sun_elevation), ("sun_radius", sun_radius)):
-            if not math.isfinite(v):
-                raise ValueError(f"{name}: must be finite")
-        if sun_radius < 0:
-            raise ValueError("sun_radius: must be >= 0")
-        s = self.sectors
-        planes = {int(i): k for k, i in enumerate(self.sector_indices)}
+        azimuth (a border azimuth belongs to the sector it opens); otherwise
+        the fraction of the disc's area above the piecewise-constant horizon,
+        the disc taken in the sun's local tangent plane (x = Δazimuth ·
+        cos(elevation), y = Δelevation). That flat model suits a real sun
+        (0.27°) away from the zenith; a disc reaching past the zenith or
+        wider than a half-turn of azimuth is clipped to one turn and may not
+        reach 1. Only the sectors the disc covers are needed (a
+        ``sectors_subset`` horizon map will do). Per point in Rust, float64.
 
-        def plane(i: int) -> npt.NDArray[np.float64]:
-            if i not in planes:
-                raise ValueError(f"shadow: sector {i} was not computed (sectors_subset)")
-            return self.elevation[planes[i]].astype(np.float64)
-
-        nan = ~np.isfinite(self.z)
-        if sun_radius == 0:
-            out = (sun_elevation > plane(self.sector_of(sun_azimuth))).astype(np.float64)
-            out[nan] = np.nan
-            return out
-        r = sun_radius
-        cs = max(math.cos(sun_elevation), 1e-9)
-        half = min(r / cs, math.pi)
-        area = np.zeros(self.z.shape)
-        w = 2 * math.pi / s
-        for i in range(s):
-            lo = ((2 * math.pi * i / s - sun_azimuth + math.pi) % (2 * math.pi)) - math.pi
-            hi = lo + w
-            if hi < -half or lo > half:
-                continue
-            area += _disc_strip_above(lo * cs, hi * cs, plane(i) - sun_elevation, r)
-        out = np.clip(area / (math.pi * r * r), 0.0, 1.0)
-        out[nan] = np.nan
-        return out
+        >>> import numpy as np, fcol
+        >>> z = np.zeros((9, 9)); z[4, 8] = 3.0
+        >>> hm = fcol.horizon_map(z, sectors=8)
+        >>> float(hm.shadow(0.1, 0.2)[4, 0]), float(hm.shadow(0.1, 0.5)[4, 0])
+        (0.0, 1.0)
+        """
+        return self._sun(sun_azimuth, sun_elevation, sun_radius, None)
 
     def sun(self, sun_azimuth: float, sun_elevation: float, sun_radius: float = 0.0, normals: npt.NDArray[np.float64] | None = None) -> npt.NDArray[np.float64]:
         """Direct sun irradiance (sun radiance 1 per unit of cos): the visible
-        fraction of the disc times max(0, N·s)."""
-        n = self.normals() if normals is None else np.asarray(normals)
-        d = np.array([math.cos(sun_elevation) * math.cos(sun_azimuth), math.cos(sun_elevation) * math.sin(sun_azimuth), math.sin(sun_elevation)])
-        return self.shadow(sun_azimuth, sun_elevation, sun_radius) * np.maximum(n @ d, 0.0)
+        fraction of the disc (:meth:`shadow`) times max(0, N·s), float64
+        (H, W) in grid order, usable as a ``texture=`` of ``fcol.render``.
 
-
-def _disc_strip_above(x0: float, x1: float, y0: npt.NDArray[np.float64], r: float) -> npt.NDArray[np.float64]:
-    """Area of the disc x² + y² ≤ r² within x0 ≤ x ≤ x1 and y ≥ y0 (vectorised
-    in y0, NaN treated as no obstruction)."""
-    y0 = np.nan_to_num(np.asarray(y0, dtype=np.float64), nan=-np.inf)
-
-    def g(x: Any) -> Any:  # antiderivative of sqrt(r² − x²) on [−r, r]
-        x = np.clip(x, -r, r)
-        return 0.5 * (x * np.sqrt(np.maximum(r * r - x * x, 0.0)) + r * r * np.arcsin(x / r))
-
-    def integral(lo: Any, hi: Any) -> Any:
-        lo, hi = np.maximum(lo, x0), np.minimum(hi, x1)
-        return np.where(hi > lo, g(hi) - g(lo), 0.0)
-
-    yc = np.clip(y0, -r, r)
-    a = np.sqrt(np.maximum(r * r - yc * yc, 0.0))
-    inner = integral(-a, a) - yc * np.maximum(np.minimum(a, x1) - np.maximum(-a, x0), 0.0)
-    outer = 2 * (integral(-r, -a) + integral(a, r))
-    area = inner + np.where(yc < 0, outer, 0.0)
-    return np.where(y0 >= r, 0.0, np.where(y0 <= -r, 2 * integral(-r, r), area))
+        >>> import numpy as np, fcol
+        >>> hm = fcol.horizon_map(np.zeros((4, 4)), sectors=8)
+        >>> bool(np.isclose(hm.sun(0.0, 0.5)[0, 0], np.sin(0.5)))
+        True
+        """
+        return self._sun(sun_azimuth, sun_elevation, sun_radius, self._normals_arg(normals))
 
 
 def mars_sky(sun_azimuth: float, sun_elevation: float, r_sun: float = 1.0, power: float = 20.0) -> Sky:
@@ -541,7 +518,8 @@ def shade_terrain(
     ``spacing`` and ``horizon_options`` (see :func:`horizon_map`). Buffers:
     rgb, intensity, depth (−w: the camera looks down from above the target
     (0, 0, 0)), normal, uv, side, mask. The (H, W) intensity in grid order,
-    usable as a texture, is ``HorizonMap.sun(...)`` / ``sky_view_factor()``.
+    usable as ``fcol.render(..., texture=...)`` of a ``HeightGrid`` of the
+    same z and extent, is ``HorizonMap.sun(...)`` / ``sky_view_factor()``.
 
     >>> import numpy as np, fcol
     >>> z = np.add.outer(np.zeros(12), np.linspace(0, 3, 12))

@@ -30,6 +30,26 @@ def render(
     ``specular``, ``shininess``, ``upper_color``, ``under_color``,
     ``background``. Each method documents its own further options; an
     unknown option is a ``TypeError`` naming it.
+
+    ``texture=T`` (floating column): an (H, W) array over the surface's
+    domain, laid out like a height grid's z (row i along v, column j along
+    u; over a ``HeightGrid``'s extent, so a north-up grid's texture is
+    north-up too) — e.g. ``HorizonMap.sun(...)`` or ``sky_view_factor()``
+    of the same grid. Each pixel's intensity and rgb are multiplied by T
+    sampled bilinearly at the pixel's (u, v) (rgb rounded and clamped to
+    0–255; background pixels unchanged). Non-finite texels count as 0 (a
+    dark pixel, never a NaN colour). The pixels' (u, v) are computed even
+    when ``outputs`` does not name ``"uv"``; with ``antialias`` > 1 the
+    texture is sampled at the pixel centre.
+
+    >>> import numpy as np, fcol
+    >>> g = fcol.HeightGrid(np.zeros((3, 3)), extent=(0, 1, 0, 1))
+    >>> half = np.full((3, 3), 0.5)
+    >>> v = fcol.View(90, 0, view_height=1.2)
+    >>> a = fcol.render(g, v, 8, 8, outputs="intensity")
+    >>> b = fcol.render(g, v, 8, 8, outputs="intensity", texture=half)
+    >>> bool(np.allclose(b.intensity, 0.5 * a.intensity, equal_nan=True))
+    True
     """
     if not isinstance(view, View):
         raise TypeError(f"view: expected fcol.View, got {type(view).__name__}")

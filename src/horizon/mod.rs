@@ -51,6 +51,7 @@
 pub mod brute;
 pub mod cms;
 pub mod exact;
+pub mod sky;
 pub mod stewart;
 pub mod sweep;
 

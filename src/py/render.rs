@@ -3,10 +3,14 @@
 
 use super::convert::{buffers_to_dict, parse_outputs, take_shading, Options};
 use super::run;
+use super::surfaces::PyHeightGrid;
 use super::view::PyView;
 use crate::error::FcolError;
 use crate::floating::{self, Corrections, FloatingOptions, ShadingMode};
+use crate::image::Buffers;
 use crate::surface::HeightField;
+use crate::texture::Texture;
+use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::time::Instant;
@@ -104,6 +108,9 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   orthographic views);
 /// * `planes` (80, floating_horizon): number of sampling planes;
 /// * `threads`: worker threads (default: all); output is identical for any;
+/// * `texture` (floating_column): an (H, W) array over the surface's
+///   domain, laid out like a height grid's z, multiplying each pixel's
+///   intensity and rgb at the pixel's (u, v) (see [`texture_from_py`]);
 /// * the shading options of every renderer (`light`, `ambient`, ...).
 ///
 /// >>> import fcol
@@ -142,8 +149,25 @@ fn render_height<'py>(
             .into())
         }
     };
-    let outputs = parse_outputs(outputs)?;
+    let mut outputs = parse_outputs(outputs)?;
     let o = Options::new(options, py)?;
+    let texture = match o.take::<Bound<'py, PyAny>>("texture")? {
+        Some(_) if horizon => {
+            return Err(FcolError::value(
+                "texture",
+                "applies to method=\"floating_column\" (shaded pixels)",
+            )
+            .into());
+        }
+        Some(t) => Some(texture_from_py(py, &t, surface)?),
+        None => None,
+    };
+    // The texture is looked up at each pixel's (u, v): ask the renderer for
+    // them, and drop them again if the caller did not.
+    let keep_uv = outputs.uv;
+    if texture.is_some() {
+        outputs.uv = true;
+    }
     let shading = take_shading(&o)?;
     let fopts = parse_options(&o, method)?;
     o.finish(&format!("fcol.render(method={method:?})"))?;
@@ -159,9 +183,13 @@ fn render_height<'py>(
                 f, &view, width, height, &outputs, &shading, &fopts, cancel,
             )
         } else {
-            floating::render_floating_column(
+            let mut b = floating::render_floating_column(
                 f, &view, width, height, &outputs, &shading, &fopts, cancel,
-            )
+            )?;
+            if let Some(t) = &texture {
+                apply_texture(t, &mut b, keep_uv, cancel)?;
+            }
+            Ok(b)
         }
     });
     let elapsed = t0.elapsed().as_secs_f64();
@@ -169,6 +197,76 @@ fn render_height<'py>(
     // is taken (and the callable reset) whether or not the core failed.
     super::surfaces::check_surface_errors(surface)?;
     buffers_to_dict(py, buf?, elapsed)
+}
+
+/// `texture=`: any real 2-D array, placed over the surface like a height
+/// grid's z — over a `fcol.HeightGrid`'s extent (v0 > v1 when north-up),
+/// else over the domain ((u0, u1), (v0, v1)). Non-finite texels count as 0.
+fn texture_from_py(
+    py: Python<'_>,
+    obj: &Bound<'_, PyAny>,
+    surface: &Bound<'_, PyAny>,
+) -> PyResult<Texture> {
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (obj,)).map_err(|e| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "texture: expected a 2-D array of real numbers ({})",
+            e.value(py)
+        ))
+    })?;
+    let kind: String = a.getattr("dtype")?.getattr("kind")?.extract()?;
+    if !matches!(kind.as_str(), "b" | "i" | "u" | "f") {
+        let dt = a.getattr("dtype")?.str()?.to_string();
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "texture: expected real values (an integer or float dtype), got dtype {dt}"
+        )));
+    }
+    let ndim: usize = a.getattr("ndim")?.extract()?;
+    if ndim != 2 {
+        let shape = a.getattr("shape")?.repr()?.to_string();
+        return Err(FcolError::value(
+            "texture",
+            format!("must be a 2-D array (rows along v, columns along u), got shape {shape}"),
+        )
+        .into());
+    }
+    let a = a.call_method1("astype", ("float64",))?;
+    let arr: PyReadonlyArray2<'_, f64> = a.extract()?;
+    let (rows, cols) = (arr.shape()[0], arr.shape()[1]);
+    let texels: Vec<f64> = arr.as_array().iter().copied().collect();
+    let place = if surface.cast::<PyHeightGrid>().is_ok() {
+        surface
+            .getattr("extent")?
+            .extract::<(f64, f64, f64, f64)>()?
+    } else {
+        let ((u0, u1), (v0, v1)) = surface.getattr("domain")?.extract()?;
+        (u0, u1, v0, v1)
+    };
+    Ok(Texture::new(texels, rows, cols, place)?)
+}
+
+/// Multiply the shaded buffers by the texture; drop the (u, v) buffer if
+/// only the texture needed it.
+fn apply_texture(
+    t: &Texture,
+    b: &mut Buffers,
+    keep_uv: bool,
+    cancel: &crate::cancel::Cancel,
+) -> crate::error::Result<()> {
+    let Some(uv) = b.uv.as_deref() else {
+        return Ok(());
+    };
+    t.apply(
+        b.width,
+        uv,
+        b.intensity.as_deref_mut(),
+        b.rgb.as_deref_mut(),
+        cancel,
+    )?;
+    if !keep_uv {
+        b.uv = None;
+    }
+    Ok(())
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

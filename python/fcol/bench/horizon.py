@@ -4,7 +4,10 @@ fitted growth exponents), the fastest line-sampling tool that installs
 (topocalc's ``horizon``, at the same number of directions) in the same run,
 the speed-up on all cores, peak memory, hull sizes, the spike test's share
 of points that see the spike, and the sky-view factor of matplotlib's
-``jacksboro_fault_dem.npz`` against topocalc's ``viewf``."""
+``jacksboro_fault_dem.npz`` against topocalc's ``viewf``; and the sky
+light and sun shadows of ``HorizonMap`` (Rust, per point) against their
+NumPy reference on that DEM and at 1024², s = 64 (``sky_rows``; alone:
+``python -m fcol.bench.horizon --sky-only``)."""
 
 from __future__ import annotations
 
@@ -206,12 +209,84 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
         plt.close(fig)
     except Exception:  # pragma: no cover
         pass
+    rows.extend(sky_rows(quick))
     with open(out_dir / "horizon_table.json", "w") as f:
         json.dump(rows, f, indent=1, default=str)
     return rows
 
 
+def _jacksboro_map(sectors: int) -> Any:
+    from matplotlib.cbook import get_sample_data
+
+    dem: Any = get_sample_data("jacksboro_fault_dem.npz")
+    ext = (float(dem["xmin"]), float(dem["xmax"]), float(dem["ymin"]), float(dem["ymax"]))
+    return fcol.horizon_map(dem["elevation"], extent=ext, geographic=True, sectors=sectors, method="stewart")
+
+
+def sky_rows(quick: bool) -> list[dict[str, Any]]:
+    """Sky light and sun shadows from one horizon map: the per-point Rust
+    functions of ``HorizonMap`` against the whole-array NumPy reference
+    (``fcol.testing.sky``), same map, same normals, same sky table, one
+    after the other; wall seconds (median of repeats for fast calls), the
+    speed-up, the largest relative difference, and the reference's peak
+    NumPy memory (tracemalloc; the Rust side allocates the (H, W) result
+    and O(W) per row)."""
+    import tracemalloc
+
+    from fcol import horizon as hz
+    from fcol.testing import sky as ref
+
+    cases: list[tuple[str, Any]] = []
+    try:
+        cases.append(("jacksboro 403x344", lambda: _jacksboro_map(S)))
+    except Exception:  # pragma: no cover - matplotlib missing
+        pass
+    side = 512 if quick else 1024
+    cases.append((f"terrain {side}x{side}", lambda: fcol.horizon_map(_terrain(side), 1.0, sectors=S, method="sweep")))
+    rows: list[dict[str, Any]] = []
+    for name, make in cases:
+        hm = make()
+        hm.normals()  # shared, computed once
+        az, el, r = math.radians(220), math.radians(20), math.radians(0.27)
+        table = hm.sky_table(hz.mars_sky(az, math.radians(35)))
+
+        def svf_rust() -> Any:
+            hm._svf = None  # no cache: time the computation
+            return hm.sky_view_factor()
+
+        pairs = {
+            "sky_view_factor": (svf_rust, lambda: ref.sky_view_factor(hm)),
+            "illumination (Mars sky table)": (lambda: hm.illumination(table), lambda: ref.illumination(hm, table)),
+            "radiosity (albedo 0.4)": (lambda: hm.radiosity(table, 0.4), lambda: ref.radiosity(hm, table, 0.4)),
+            "shadow, point sun": (lambda: hm.shadow(az, el), lambda: ref.shadow(hm, az, el)),
+            "sun, disc 0.27 deg": (lambda: hm.sun(az, el, r), lambda: ref.sun(hm, az, el, r)),
+        }
+        for what, (rust, numpy_ref) in pairs.items():
+            a, b = rust(), numpy_ref()
+            ok = np.isfinite(b)
+            rel = float(np.max(np.abs(a[ok] - b[ok]) / np.maximum(np.abs(b[ok]), 1e-12))) if ok.any() else 0.0
+            t_rust = _time(rust, 2.0)
+            t_np = _time(numpy_ref, 2.0)
+            tracemalloc.start()
+            numpy_ref()
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+            rows.append({
+                "table": "sky", "grid": name, "sectors": hm.sectors, "quantity": what,
+                "rust_s": t_rust, "numpy_s": t_np, "speedup": t_np / t_rust,
+                "max_rel_diff": rel, "numpy_peak_mb": peak / 2**20,
+            })
+        del hm
+    return rows
+
+
 if __name__ == "__main__":  # pragma: no cover
-    for r in run(Path(sys.argv[1] if len(sys.argv) > 1 else "bench-out"), "--quick" in sys.argv):
-        print(r)
+    # python -m fcol.bench.horizon [out] [--quick] [--sky-only]
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    if "--sky-only" in sys.argv:
+        for r in sky_rows("--quick" in sys.argv):
+            print(r)
+    else:
+        for r in run(Path(args[0] if args else "bench-out"), "--quick" in sys.argv):
+            print(r)
     _ = math
