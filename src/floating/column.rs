@@ -11,7 +11,7 @@
 //! interpolation, which is still "evaluate only where visible".
 
 use super::artifacts;
-use super::sampling::{Frame, Sample, Sampler};
+use super::sampling::{Ahead, Frame, Sample, Sampler};
 use super::{FloatingOptions, ShadingMode};
 use crate::camera::Camera;
 use crate::shade::Shading;
@@ -125,6 +125,9 @@ impl Coverage {
 
 const MAX_STEPS: usize = 4_000_000;
 
+/// Fraction of the allowed row gap the sweep's step aims at.
+pub(super) const AIM: f64 = 0.8;
+
 struct Sweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
     sampler: Sampler<'a>,
@@ -133,6 +136,9 @@ struct Sweep<'c, 'a> {
     h: usize,
     stats: ColumnStats,
     jobs: Vec<super::refine::Job>,
+    /// Batched look-ahead (vertical column planes only).
+    ahead: Option<Box<Ahead>>,
+    batch: Vec<Option<Sample>>,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -159,6 +165,8 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         h: ctx.cam.height,
         stats: ColumnStats::default(),
         jobs: Vec::with_capacity(if ctx.refine { ctx.cam.height } else { 0 }),
+        ahead: (line.kappa == 0.0).then(Box::default),
+        batch: Vec::new(),
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
@@ -204,6 +212,52 @@ impl<'c, 'a> Sweep<'c, 'a> {
             Some(x) if x.rho.is_finite() && x.z.is_finite() => Some(x),
             _ => None,
         }
+    }
+
+    /// The next sample of a sweep after τ, at τ + h, or at any τ' in
+    /// [τ + h/2, τ + h_max] already evaluated ahead (a smaller step than
+    /// wanted is always safe: the row gap is checked all the same).
+    #[allow(clippy::too_many_arguments)]
+    fn next(
+        &mut self,
+        tt: impl Fn(f64) -> f64,
+        tau: f64,
+        h: f64,
+        h_max: f64,
+        limit: f64,
+        snap: f64,
+        pred: f64,
+    ) -> (f64, Option<Sample>) {
+        let Some(mut ahead) = self.ahead.take() else {
+            let mut tau_n = tau + h;
+            if tau_n >= limit - snap {
+                tau_n = limit;
+            }
+            return (tau_n, self.sample(tt(tau_n), pred));
+        };
+        let hi = (tau + h_max).min(limit);
+        let r = match ahead.take(tau + 0.5 * h, hi) {
+            Some(x) => x,
+            None => {
+                let taus = ahead.plan(tau, h, limit, snap).to_vec();
+                ahead.ts.clear();
+                ahead.ts.extend(taus.iter().map(|&x| tt(x)));
+                let ts = std::mem::take(&mut ahead.ts);
+                let mut batch = std::mem::take(&mut self.batch);
+                self.sampler
+                    .sample_many(&ts, &mut batch, &mut ahead.scratch);
+                ahead.ts = ts;
+                let first = ahead.fill(&mut batch);
+                self.batch = batch;
+                first
+            }
+        };
+        self.ahead = Some(ahead);
+        let s = match r.1 {
+            Some(x) if x.rho.is_finite() && x.z.is_finite() => Some(x),
+            _ => None,
+        };
+        (r.0, s)
     }
 
     /// Prediction of w' at parameter distance dtau (signed t step) from a.
@@ -253,19 +307,22 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 None => fr.footprint(self.z_guess(tt(tau))),
             };
             let cap = opts.max_step * fp;
-            let mut h = match &prev {
+            // The step aims a little under the row gap allowed (so that
+            // few steps are retried), and any step up to the allowed gap
+            // is taken from the look-ahead.
+            let (mut h, mut h_max) = match &prev {
                 // Deep inside the covered rows nothing can show before the
                 // curve climbs out: take the largest step (checked below).
-                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => cap,
+                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => (cap, cap),
                 Some(a) => {
                     let r = a.drho_dt.abs();
                     if r > 0.0 && r.is_finite() {
-                        (step_px / r).min(cap)
+                        ((AIM * step_px / r).min(cap), (step_px / r).min(cap))
                     } else {
-                        cap
+                        (cap, cap)
                     }
                 }
-                None => cap,
+                None => (cap, cap),
             };
             let limit = match barrier {
                 Some((b, _)) if prev.is_some() => b,
@@ -273,16 +330,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
             };
             let mut halvings = 0;
             loop {
-                let mut tau_n = tau + h;
-                if tau_n >= limit - 1e-12 * fp {
-                    tau_n = limit;
-                }
-                let hh = tau_n - tau;
                 let pred = match &prev {
-                    Some(a) => Self::predict(a, sign * hh),
+                    Some(a) => Self::predict(a, sign * h),
                     None => last_w,
                 };
-                let cand = self.sample(tt(tau_n), pred);
+                let (tau_n, cand) = self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred);
+                let hh = tau_n - tau;
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
@@ -291,6 +344,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                             // Retry at the step the gap suggests (rows vary
                             // about linearly over a small step).
                             h = hh * (0.9 * step_px / gap).clamp(0.05, 0.5);
+                            h_max = h;
                             halvings += 1;
                             continue;
                         }

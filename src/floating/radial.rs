@@ -21,7 +21,7 @@
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
-use super::sampling::Sample;
+use super::sampling::{Ahead, Sample, Scratch};
 use super::ShadingMode;
 use crate::cancel::Cancel;
 use crate::error::Result;
@@ -78,7 +78,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
     let bin_of = |dir: DVec3| -> usize {
-        let x = (dir.y.atan2(dir.x) + PI) / (2.0 * PI);
+        let x = (fast_atan2(dir.y, dir.x) + PI) / (2.0 * PI);
         ((x * nb as f64) as usize).min(nb - 1)
     };
     // Bin and elevation of every pixel (rows in parallel), then a counting
@@ -89,7 +89,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             (0..w).map(move |j| {
                 let (_, dir) = cam.ray(i as f64, j as f64);
                 let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-                (bin_of(dir) as u32, dir.z.atan2(hl))
+                (bin_of(dir) as u32, fast_atan2(dir.z, hl))
             })
         })
         .collect();
@@ -198,6 +198,52 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
     stats.refine_evals += sw.stats.refine_evals;
 }
 
+/// atan2(y, x) to about 1e-15 rad: Cephes' `atan` (range reduction to |z| ≤ tan(π/8) and a
+/// rational approximation), several times cheaper than libm's `atan2`. The
+/// sweep compares elevations of samples and rays computed by this one
+/// function, so only its monotonicity matters for visibility.
+#[inline]
+pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    if !(y.is_finite() && x.is_finite()) || x == 0.0 || (y == 0.0 && x < 0.0) {
+        return y.atan2(x);
+    }
+    if x < 0.0 {
+        // atan2 in the left half-plane, by symmetry.
+        let r = fast_atan2(y, -x);
+        return if y > 0.0 { PI - r } else { -PI - r };
+    }
+    let q = y / x;
+    let a = q.abs();
+    const T3P8: f64 = 2.414_213_562_373_095; // tan(3π/8)
+    let (base, z) = if a > T3P8 {
+        (FRAC_PI_2, -1.0 / a)
+    } else if a > 0.66 {
+        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    } else {
+        (0.0, a)
+    };
+    let zz = z * z;
+    let p = (((-8.750_608_600_031_904e-1 * zz - 1.615_753_718_733_365e1) * zz
+        - 7.500_855_792_314_705e1)
+        * zz
+        - 1.228_866_684_490_136_1e2)
+        * zz
+        - 6.485_021_904_942_025e1;
+    let qd = ((((zz + 2.485_846_490_142_306_4e1) * zz + 1.650_270_098_316_988_6e2) * zz
+        + 4.328_810_604_912_903e2)
+        * zz
+        + 4.853_903_996_359_137e2)
+        * zz
+        + 1.945_506_571_482_614e2;
+    let r = base + (z + z * zz * p / qd);
+    if q < 0.0 {
+        -r
+    } else {
+        r
+    }
+}
+
 struct RadialSweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
     eh: DVec2,
@@ -213,6 +259,8 @@ struct RadialSweep<'c, 'a> {
     job_side: Vec<i8>,
     /// Screen pixels per radian of θ (conservative).
     ppr: f64,
+    ahead: Ahead,
+    batch: Vec<Option<Sample>>,
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -223,11 +271,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             rays,
             done: vec![false; rays.len()],
             cov: Default::default(),
-            out: Vec::new(),
+            out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
-            jobs: Vec::new(),
-            job_side: Vec::new(),
+            jobs: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
+            job_side: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
             ppr: 1.5 * ctx.cam.focal,
+            ahead: Ahead::default(),
+            batch: Vec::new(),
         }
     }
 
@@ -258,11 +308,52 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         Some(self.finish(rho, uv, hs))
     }
 
+    /// Samples at every ρ of `rhos`, in one batched evaluation (the same
+    /// samples as [`Self::sample`] one by one).
+    fn sample_many(&mut self, rhos: &[f64], out: &mut Vec<Option<Sample>>, sc: &mut Scratch) {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let d = ctx.frame.domain;
+        sc.clear();
+        for &rho in rhos {
+            let uv = DVec2::new(e.x, e.y) + rho * self.eh;
+            sc.u.push(uv.x.clamp(d.u0, d.u1));
+            sc.v.push(uv.y.clamp(d.v0, d.v1));
+        }
+        sc.hs.resize(rhos.len(), HeightSample::default());
+        ctx.field.eval_batch(&sc.u, &sc.v, &mut sc.hs);
+        self.stats.sweep_evals += rhos.len() as u64;
+        out.clear();
+        for (k, &rho) in rhos.iter().enumerate() {
+            let hs = sc.hs[k];
+            out.push(
+                hs.is_finite()
+                    .then(|| self.finish(rho, DVec2::new(sc.u[k], sc.v[k]), hs)),
+            );
+        }
+    }
+
+    /// The next sample after ρ: at ρ + h, or at any ρ' in [ρ + h/2,
+    /// ρ + h_max] already evaluated ahead (see [`Ahead`]).
+    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64) -> (f64, Option<Sample>) {
+        if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
+            return x;
+        }
+        let rhos = self.ahead.plan(rho, h, r1, 0.0).to_vec();
+        let mut batch = std::mem::take(&mut self.batch);
+        let mut sc = std::mem::take(&mut self.ahead.scratch);
+        self.sample_many(&rhos, &mut batch, &mut sc);
+        self.ahead.scratch = sc;
+        let first = self.ahead.fill(&mut batch);
+        self.batch = batch;
+        first
+    }
+
     fn finish(&self, rho: f64, uv: DVec2, hs: HeightSample) -> Sample {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
         let wr = hs.f - e.z;
-        let theta = wr.atan2(rho);
+        let theta = fast_atan2(wr, rho);
         let f_rho = hs.fu * self.eh.x + hs.fv * self.eh.y;
         // dθ/dρ = (ρ f_ρ − w') / (ρ² + w'²).
         let dth = (rho * f_rho - wr) / (rho * rho + wr * wr).max(1e-300);
@@ -339,31 +430,29 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut steps = 0usize;
         while rho < r1 && steps < 4_000_000 {
             steps += 1;
-            let (cap, mut hstep) = match &prev {
+            let (h_max0, mut hstep) = match &prev {
                 Some(a) => {
                     let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
                     let deep = self.cov.depth(a.rho) > 2.0 * opts.step;
-                    let hs = if !deep && r > 0.0 && r.is_finite() {
-                        (opts.step / r).min(cap)
+                    if !deep && r > 0.0 && r.is_finite() {
+                        (
+                            (opts.step / r).min(cap),
+                            (super::column::AIM * opts.step / r).min(cap),
+                        )
                     } else {
-                        cap
-                    };
-                    (cap, hs)
+                        (cap, cap)
+                    }
                 }
                 None => {
                     let cap = opts.max_step * (rho.max(1e-9 * scale)) / ctx.cam.focal;
                     (cap, cap)
                 }
             };
-            let _ = cap;
+            let mut h_max = h_max0;
             let mut halvings = 0;
             loop {
-                let mut rn = rho + hstep;
-                if rn > r1 {
-                    rn = r1;
-                }
-                let cand = self.sample(rn);
+                let (rn, cand) = self.next(rho, hstep, h_max, r1);
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
@@ -374,6 +463,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                             && (rn - rho) > 1e-9 * fp_at(&a)
                         {
                             hstep = (rn - rho) * (0.9 * opts.step / gap).clamp(0.05, 0.5);
+                            h_max = hstep;
                             halvings += 1;
                             continue;
                         }

@@ -258,6 +258,24 @@ impl Sample {
     }
 }
 
+/// Reusable buffers of a batched evaluation.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    pub u: Vec<f64>,
+    pub v: Vec<f64>,
+    pub idx: Vec<usize>,
+    pub hs: Vec<HeightSample>,
+}
+
+impl Scratch {
+    pub fn clear(&mut self) {
+        self.u.clear();
+        self.v.clear();
+        self.idx.clear();
+        self.hs.clear();
+    }
+}
+
 /// Evaluates samples on one column's curve, counting function evaluations.
 pub struct Sampler<'a> {
     pub frame: &'a Frame,
@@ -287,6 +305,43 @@ impl<'a> Sampler<'a> {
         let eu = 1e-12 * (d.u1 - d.u0).abs().max(d.u0.abs().max(d.u1.abs()));
         let ev = 1e-12 * (d.v1 - d.v0).abs().max(d.v0.abs().max(d.v1.abs()));
         uv.x >= d.u0 - eu && uv.x <= d.u1 + eu && uv.y >= d.v0 - ev && uv.y <= d.v1 + ev
+    }
+
+    /// Samples at every t of `ts` with one batched evaluation, for columns
+    /// whose plane is vertical (κ = 0: every sample is one evaluation, so
+    /// the batch gives exactly what [`Self::sample`] gives point by point).
+    /// Points outside the domain are `None` and not evaluated.
+    pub fn sample_many(
+        &mut self,
+        ts: &[f64],
+        out: &mut Vec<Option<Sample>>,
+        scratch: &mut Scratch,
+    ) {
+        debug_assert!(self.line.kappa == 0.0);
+        let fr = *self.frame;
+        let s = self.line.s0;
+        scratch.clear();
+        for (k, &t) in ts.iter().enumerate() {
+            let uv = fr.uv(s + self.line.a * t, t);
+            if self.inside(uv) {
+                scratch.u.push(uv.x);
+                scratch.v.push(uv.y);
+                scratch.idx.push(k);
+            }
+        }
+        scratch.hs.resize(scratch.u.len(), HeightSample::default());
+        self.field
+            .eval_batch(&scratch.u, &scratch.v, &mut scratch.hs);
+        self.evals += scratch.u.len() as u64;
+        out.clear();
+        out.resize(ts.len(), None);
+        for (n, &k) in scratch.idx.iter().enumerate() {
+            let h = scratch.hs[n];
+            if h.is_finite() {
+                let uv = DVec2::new(scratch.u[n], scratch.v[n]);
+                out[k] = Some(self.finish(ts[k], s + self.line.a * ts[k], uv, h, false));
+            }
+        }
     }
 
     /// The surface point of the column's curve at t, starting the in-plane
@@ -404,5 +459,90 @@ impl<'a> Sampler<'a> {
             lxn,
             fold,
         }
+    }
+}
+
+/// Speculative look-ahead of a sweep: the next few samples along the sweep,
+/// evaluated in one batch at a constant step (batched evaluation costs a
+/// fraction of point-by-point evaluation). The sweep takes the farthest
+/// buffered sample within the step it wants, and refills when none fits;
+/// samples skipped or discarded were evaluated all the same and are counted.
+#[derive(Debug)]
+pub struct Ahead {
+    taus: Vec<f64>,
+    smps: Vec<Option<Sample>>,
+    pos: usize,
+    k: usize,
+    pub scratch: Scratch,
+    /// Sweep parameter → sampling parameter of each new batch.
+    pub ts: Vec<f64>,
+}
+
+/// Most samples evaluated ahead in one batch.
+pub const AHEAD_MAX: usize = 32;
+
+impl Default for Ahead {
+    fn default() -> Self {
+        Ahead {
+            taus: Vec::new(),
+            smps: Vec::new(),
+            pos: 0,
+            k: 4,
+            scratch: Scratch::default(),
+            ts: Vec::new(),
+        }
+    }
+}
+
+impl Ahead {
+    /// The farthest buffered sample with sweep parameter in (lo, hi].
+    pub fn take(&mut self, lo: f64, hi: f64) -> Option<(f64, Option<Sample>)> {
+        let mut best = None;
+        let mut j = self.pos;
+        while j < self.taus.len() && self.taus[j] <= hi {
+            if self.taus[j] > lo {
+                best = Some(j);
+            }
+            j += 1;
+        }
+        let j = best?;
+        self.pos = j + 1;
+        Some((self.taus[j], self.smps[j]))
+    }
+
+    /// Sweep parameters of a new batch: τ + m·h for m = 1, 2, … (at most the
+    /// adaptive batch size), the last one snapped to `limit`. The batch
+    /// grows while batches are used up and shrinks when one is abandoned.
+    pub fn plan(&mut self, tau: f64, h: f64, limit: f64, snap: f64) -> &[f64] {
+        if self.pos < self.taus.len() {
+            self.k = (self.k / 2).max(1);
+        } else if !self.taus.is_empty() {
+            self.k = (2 * self.k).min(AHEAD_MAX);
+        }
+        self.taus.clear();
+        self.pos = 0;
+        for m in 1..=self.k {
+            let mut t = tau + m as f64 * h;
+            if t >= limit - snap {
+                t = limit;
+            }
+            self.taus.push(t);
+            if t >= limit {
+                break;
+            }
+        }
+        &self.taus
+    }
+
+    /// Store the samples of the planned batch and take the first.
+    pub fn fill(&mut self, smps: &mut Vec<Option<Sample>>) -> (f64, Option<Sample>) {
+        std::mem::swap(&mut self.smps, smps);
+        self.pos = 1;
+        (self.taus[0], self.smps[0])
+    }
+
+    /// Forget the buffer (the sweep jumped).
+    pub fn reset(&mut self) {
+        self.pos = self.taus.len();
     }
 }

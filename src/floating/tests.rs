@@ -340,3 +340,27 @@ fn horizon_draws_lines_in_both_projections() {
         assert!(n > 400, "{n}");
     }
 }
+
+#[test]
+fn fast_atan2_matches_libm() {
+    let mut prev = f64::NEG_INFINITY;
+    for k in -2000..=2000 {
+        // Monotone in y for x > 0, and within 2e-15 rad of libm everywhere.
+        let y = (k as f64 * 0.01).sinh();
+        let a = radial::fast_atan2(y, 1.0);
+        assert!(a >= prev, "not monotone at y = {y}");
+        prev = a;
+        for x in [
+            1e-300, 1e-3, 0.7, 1.0, 3.0, 1e6, -1e-3, -0.7, -1.0, -1e6, 0.0,
+        ] {
+            for s in [1.0, -1.0] {
+                let (got, want) = (radial::fast_atan2(s * y, x), (s * y).atan2(x));
+                assert!(
+                    (got - want).abs() <= 2e-15,
+                    "atan2({}, {x}): {got} vs {want}",
+                    s * y
+                );
+            }
+        }
+    }
+}
