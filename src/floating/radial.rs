@@ -120,6 +120,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             bin.sort_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
             let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
             let mut sw = RadialSweep::new(ctx, phi, &bin);
+            sw.ppr = bin_ppr(cam, phi, bin[0].theta, bin[bin.len() - 1].theta);
             sw.run();
             sw.solve();
             Ok((sw.out, sw.stats))
@@ -136,6 +137,32 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
     }
     fill_holes(ctx, &mut pixels, &mut stats);
     Ok((pixels, stats))
+}
+
+/// Screen pixels per radian of elevation along the plane of azimuth φ, over
+/// the elevations [θ0, θ1] of a bin's rays (probed, with a 10 % margin), so
+/// that the sweep's row gaps measure pixels on the screen.
+fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
+    let (sp, cp) = phi.sin_cos();
+    let at = |th: f64| {
+        let (s, c) = th.sin_cos();
+        cam.to_screen(cam.eye + DVec3::new(c * cp, c * sp, s))
+    };
+    let delta = 1e-6;
+    let mut m: f64 = 0.0;
+    for k in 0..=4 {
+        let th = th0 + (th1 - th0) * k as f64 / 4.0;
+        let (p1, p2) = (at(th - 0.5 * delta), at(th + 0.5 * delta));
+        let ds = (p2.x - p1.x).hypot(p2.y - p1.y) / delta;
+        if ds.is_finite() {
+            m = m.max(ds);
+        }
+    }
+    if m > 0.0 {
+        1.1 * m
+    } else {
+        1.5 * cam.focal
+    }
 }
 
 /// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
@@ -257,7 +284,7 @@ struct RadialSweep<'c, 'a> {
     jobs: Vec<super::refine::Job>,
     /// Seen side of each job (for the march fallback).
     job_side: Vec<i8>,
-    /// Screen pixels per radian of θ (conservative).
+    /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
     ahead: Ahead,
     batch: Vec<Option<Sample>>,
@@ -373,10 +400,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         };
         Sample {
             t: rho,
-            s: 0.0,
             wr,
             uv,
-            h: hs,
             n,
             rho: self.ppr * theta,
             z: (p - e).dot(ctx.cam.d),

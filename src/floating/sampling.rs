@@ -229,11 +229,9 @@ pub struct ColumnLine {
 #[derive(Debug, Clone, Copy)]
 pub struct Sample {
     pub t: f64,
-    pub s: f64,
     /// w − O_w.
     pub wr: f64,
     pub uv: DVec2,
-    pub h: HeightSample,
     /// Unit upper-side normal.
     pub n: DVec3,
     /// Continuous row and camera depth.
@@ -443,12 +441,11 @@ impl<'a> Sampler<'a> {
         } else {
             (0.0, 0.0, DVec3::ZERO)
         };
+        let _ = s;
         Sample {
             t,
-            s,
             wr,
             uv,
-            h,
             n,
             rho,
             z,
