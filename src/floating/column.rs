@@ -239,10 +239,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let r = match ahead.take(tau + 0.5 * h, hi) {
             Some(x) => x,
             None => {
-                let taus = ahead.plan(tau, h, limit, snap).to_vec();
-                ahead.ts.clear();
-                ahead.ts.extend(taus.iter().map(|&x| tt(x)));
-                let ts = std::mem::take(&mut ahead.ts);
+                let mut ts = std::mem::take(&mut ahead.ts);
+                ts.clear();
+                ts.extend(ahead.plan(tau, h, limit, snap).iter().map(|&x| tt(x)));
                 let mut batch = std::mem::take(&mut self.batch);
                 self.sampler
                     .sample_many(&ts, &mut batch, &mut ahead.scratch);

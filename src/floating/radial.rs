@@ -183,6 +183,11 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
             if px[i * w + j].set {
                 continue;
             }
+            let vertical = i > 0 && i + 1 < h && px[(i - 1) * w + j].set && px[(i + 1) * w + j].set;
+            let lateral = j > 0 && j + 1 < w && px[i * w + j - 1].set && px[i * w + j + 1].set;
+            if !(vertical || lateral) {
+                continue;
+            }
             let (_, dir) = cam.ray(i as f64, j as f64);
             let pairs = [
                 (i > 0 && i + 1 < h).then(|| ((i - 1) * w + j, (i + 1) * w + j)),
@@ -366,11 +371,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
             return x;
         }
-        let rhos = self.ahead.plan(rho, h, r1, 0.0).to_vec();
+        let mut rhos = std::mem::take(&mut self.ahead.ts);
+        rhos.clear();
+        rhos.extend_from_slice(self.ahead.plan(rho, h, r1, 0.0));
         let mut batch = std::mem::take(&mut self.batch);
         let mut sc = std::mem::take(&mut self.ahead.scratch);
         self.sample_many(&rhos, &mut batch, &mut sc);
         self.ahead.scratch = sc;
+        self.ahead.ts = rhos;
         let first = self.ahead.fill(&mut batch);
         self.batch = batch;
         first
