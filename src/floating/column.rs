@@ -11,7 +11,7 @@
 //! interpolation, which is still "evaluate only where visible".
 
 use super::artifacts;
-use super::sampling::{Ahead, Frame, Sample, Sampler};
+use super::sampling::{Ahead, Frame, Raw, Sample, Sampler};
 use super::{FloatingOptions, ShadingMode};
 use crate::camera::Camera;
 use crate::shade::Shading;
@@ -138,7 +138,7 @@ struct Sweep<'c, 'a> {
     jobs: Vec<super::refine::Job>,
     /// Batched look-ahead (vertical column planes only).
     ahead: Option<Box<Ahead>>,
-    batch: Vec<Option<Sample>>,
+    batch: Vec<Option<Raw>>,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -188,6 +188,12 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
     }
     if !sw.jobs.is_empty() {
         let (failed, evals) = super::refine::solve(ctx, &sw.jobs, out);
+        if ctx.opts.shading == ShadingMode::Normal {
+            for &slot in &failed {
+                let (_, dir) = ctx.cam.ray(slot as f64, col);
+                out[slot].inten = ctx.shading.intensity(out[slot].n, -dir);
+            }
+        }
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed.len() as u64;
     }
@@ -253,8 +259,11 @@ impl<'c, 'a> Sweep<'c, 'a> {
         };
         self.ahead = Some(ahead);
         let s = match r.1 {
-            Some(x) if x.rho.is_finite() && x.z.is_finite() => Some(x),
-            _ => None,
+            Some(x) => {
+                let x = self.sampler.finish(x.t, x.s, x.uv, x.h, false);
+                (x.rho.is_finite() && x.z.is_finite()).then_some(x)
+            }
+            None => None,
         };
         (r.0, s)
     }
@@ -510,6 +519,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let ra = self.clamp_row(a.rho);
         let rb = self.clamp_row(b.rho);
         let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+        if self.cov.covers(lo, hi) {
+            // Nothing newly revealed (the common case behind the front).
+            return;
+        }
         let i0 = lo.ceil().max(0.0) as i64;
         let i1 = hi.floor().min(self.h as f64 - 1.0) as i64;
         if i0 <= i1 {
@@ -555,6 +568,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             inten,
         };
         let (o, dir) = self.ctx.cam.ray(row, self.col);
+        let mut queued = false;
         if self.ctx.refine && !wall {
             // Solved later, batched with the column's other pixels.
             let fr = self.ctx.frame;
@@ -572,6 +586,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                     hi: to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span,
                     fp,
                 });
+                queued = true;
             }
         }
         if wall && self.ctx.opts.corrections.walls {
@@ -586,7 +601,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
             px.n = n;
             return px;
         }
-        if self.ctx.opts.shading == ShadingMode::Normal {
+        // A queued pixel is shaded by its exact solve (or, should that
+        // fail, from its interpolated normal afterwards).
+        if self.ctx.opts.shading == ShadingMode::Normal && !queued {
             px.inten = self.ctx.shading.intensity(px.n, -dir);
         }
         px

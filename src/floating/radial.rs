@@ -21,7 +21,7 @@
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
-use super::sampling::{Ahead, Sample, Scratch};
+use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
 use crate::cancel::Cancel;
 use crate::error::Result;
@@ -292,7 +292,7 @@ struct RadialSweep<'c, 'a> {
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
     ahead: Ahead,
-    batch: Vec<Option<Sample>>,
+    batch: Vec<Option<Raw>>,
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -342,7 +342,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 
     /// Samples at every ρ of `rhos`, in one batched evaluation (the same
     /// samples as [`Self::sample`] one by one).
-    fn sample_many(&mut self, rhos: &[f64], out: &mut Vec<Option<Sample>>, sc: &mut Scratch) {
+    fn sample_many(&mut self, rhos: &[f64], out: &mut Vec<Option<Raw>>, sc: &mut Scratch) {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
         let d = ctx.frame.domain;
@@ -358,18 +358,21 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         out.clear();
         for (k, &rho) in rhos.iter().enumerate() {
             let hs = sc.hs[k];
-            out.push(
-                hs.is_finite()
-                    .then(|| self.finish(rho, DVec2::new(sc.u[k], sc.v[k]), hs)),
-            );
+            out.push(hs.is_finite().then_some(Raw {
+                t: rho,
+                s: 0.0,
+                uv: DVec2::new(sc.u[k], sc.v[k]),
+                h: hs,
+            }));
         }
     }
 
     /// The next sample after ρ: at ρ + h, or at any ρ' in [ρ + h/2,
     /// ρ + h_max] already evaluated ahead (see [`Ahead`]).
     fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64) -> (f64, Option<Sample>) {
+        let done = |s: &Self, (t, r): (f64, Option<Raw>)| (t, r.map(|x| s.finish(x.t, x.uv, x.h)));
         if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
-            return x;
+            return done(self, x);
         }
         let mut rhos = std::mem::take(&mut self.ahead.ts);
         rhos.clear();
@@ -381,7 +384,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.ahead.ts = rhos;
         let first = self.ahead.fill(&mut batch);
         self.batch = batch;
-        first
+        done(self, first)
     }
 
     fn finish(&self, rho: f64, uv: DVec2, hs: HeightSample) -> Sample {
@@ -553,7 +556,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         &hs,
                     );
                 }
-                None => self.stats.refine_fail += 1,
+                None => {
+                    self.stats.refine_fail += 1;
+                    if self.ctx.opts.shading == ShadingMode::Normal {
+                        let p = &mut px[slot];
+                        p.inten = self.ctx.shading.intensity(p.n, -j.dir);
+                    }
+                }
             }
         }
         for (o, p) in self.out.iter_mut().zip(px) {
@@ -597,6 +606,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         } else {
             (b.rho, a.rho)
         };
+        if self.cov.covers(lo, hi) {
+            // Nothing newly revealed (the common case behind the front).
+            return;
+        }
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
         let start = self.rays.partition_point(|r| r.theta * self.ppr < lo);
         let mut k = start;
@@ -643,7 +656,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             uv: DVec2::new(q0.x, q0.y),
             inten: a.inten + tau * (b.inten - a.inten),
         };
-        if ctx.refine && !wall {
+        let queued = ctx.refine && !wall;
+        if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
             let la = (pa - e).length();
@@ -666,7 +680,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             px.inten = ctx.shading.intensity(wn, -dir);
             return px;
         }
-        if ctx.opts.shading == ShadingMode::Normal {
+        // A queued pixel is shaded by its exact solve (or, should that
+        // fail, from its interpolated normal afterwards).
+        if ctx.opts.shading == ShadingMode::Normal && !queued {
             px.inten = ctx.shading.intensity(px.n, -dir);
         }
         px

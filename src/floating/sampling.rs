@@ -256,6 +256,16 @@ impl Sample {
     }
 }
 
+/// A point evaluated ahead: its derived quantities are computed only if the
+/// sweep takes it ([`Sampler::finish`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Raw {
+    pub t: f64,
+    pub s: f64,
+    pub uv: DVec2,
+    pub h: HeightSample,
+}
+
 /// Reusable buffers of a batched evaluation.
 #[derive(Debug, Default)]
 pub struct Scratch {
@@ -309,12 +319,7 @@ impl<'a> Sampler<'a> {
     /// whose plane is vertical (κ = 0: every sample is one evaluation, so
     /// the batch gives exactly what [`Self::sample`] gives point by point).
     /// Points outside the domain are `None` and not evaluated.
-    pub fn sample_many(
-        &mut self,
-        ts: &[f64],
-        out: &mut Vec<Option<Sample>>,
-        scratch: &mut Scratch,
-    ) {
+    pub fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
         debug_assert!(self.line.kappa == 0.0);
         let fr = *self.frame;
         let s = self.line.s0;
@@ -336,8 +341,12 @@ impl<'a> Sampler<'a> {
         for (n, &k) in scratch.idx.iter().enumerate() {
             let h = scratch.hs[n];
             if h.is_finite() {
-                let uv = DVec2::new(scratch.u[n], scratch.v[n]);
-                out[k] = Some(self.finish(ts[k], s + self.line.a * ts[k], uv, h, false));
+                out[k] = Some(Raw {
+                    t: ts[k],
+                    s: s + self.line.a * ts[k],
+                    uv: DVec2::new(scratch.u[n], scratch.v[n]),
+                    h,
+                });
             }
         }
     }
@@ -467,7 +476,7 @@ impl<'a> Sampler<'a> {
 #[derive(Debug)]
 pub struct Ahead {
     taus: Vec<f64>,
-    smps: Vec<Option<Sample>>,
+    smps: Vec<Option<Raw>>,
     pos: usize,
     k: usize,
     pub scratch: Scratch,
@@ -493,7 +502,7 @@ impl Default for Ahead {
 
 impl Ahead {
     /// The farthest buffered sample with sweep parameter in (lo, hi].
-    pub fn take(&mut self, lo: f64, hi: f64) -> Option<(f64, Option<Sample>)> {
+    pub fn take(&mut self, lo: f64, hi: f64) -> Option<(f64, Option<Raw>)> {
         let mut best = None;
         let mut j = self.pos;
         while j < self.taus.len() && self.taus[j] <= hi {
@@ -532,7 +541,7 @@ impl Ahead {
     }
 
     /// Store the samples of the planned batch and take the first.
-    pub fn fill(&mut self, smps: &mut Vec<Option<Sample>>) -> (f64, Option<Sample>) {
+    pub fn fill(&mut self, smps: &mut Vec<Option<Raw>>) -> (f64, Option<Raw>) {
         std::mem::swap(&mut self.smps, smps);
         self.pos = 1;
         (self.taus[0], self.smps[0])
