@@ -127,15 +127,18 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
         })
         .collect();
     let mut pixels = vec![Pixel::default(); w * h];
+    // Which pixels are set, compactly (the hole filling scans it).
+    let mut set = vec![false; w * h];
     let mut stats = ColumnStats::default();
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
         for (k, p) in px {
+            set[k] = p.set;
             pixels[k] = p;
         }
     }
-    fill_holes(ctx, &mut pixels, &mut stats);
+    fill_holes(ctx, &mut pixels, &mut set, &mut stats);
     Ok((pixels, stats))
 }
 
@@ -170,7 +173,7 @@ fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
 /// own ray does not. Unrevealed pixels between two revealed neighbours
 /// (above and below, or left and right) at similar depths are searched on
 /// their own ray, between the neighbours' hits.
-fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
+fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], set: &mut [bool], stats: &mut ColumnStats) {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
     let mut sw = RadialSweep::new(ctx, 0.0, &[]);
@@ -180,11 +183,11 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
     };
     for i in 0..h {
         for j in 0..w {
-            if px[i * w + j].set {
+            if set[i * w + j] {
                 continue;
             }
-            let vertical = i > 0 && i + 1 < h && px[(i - 1) * w + j].set && px[(i + 1) * w + j].set;
-            let lateral = j > 0 && j + 1 < w && px[i * w + j - 1].set && px[i * w + j + 1].set;
+            let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
+            let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
             if !(vertical || lateral) {
                 continue;
             }
@@ -221,6 +224,7 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
                         p.inten = ctx.shading.intensity(p.n, -dir);
                     }
                     px[i * w + j] = p;
+                    set[i * w + j] = true;
                     stats.holes_filled += 1;
                     break;
                 }
@@ -293,6 +297,8 @@ struct RadialSweep<'c, 'a> {
     ppr: f64,
     ahead: Ahead,
     batch: Vec<Option<Raw>>,
+    /// Where the last span's rays started (in `rays`).
+    cursor: usize,
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -310,6 +316,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
             batch: Vec::new(),
+            cursor: 0,
         }
     }
 
@@ -611,8 +618,17 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             return;
         }
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
-        let start = self.rays.partition_point(|r| r.theta * self.ppr < lo);
-        let mut k = start;
+        // The first ray with θ ≥ lo, walked to from the previous span's
+        // (consecutive spans share an end).
+        let ppr = self.ppr;
+        let mut k = self.cursor.min(self.rays.len());
+        while k > 0 && self.rays[k - 1].theta * ppr >= lo {
+            k -= 1;
+        }
+        while k < self.rays.len() && self.rays[k].theta * ppr < lo {
+            k += 1;
+        }
+        self.cursor = k;
         while k < self.rays.len() && self.rays[k].theta * self.ppr <= hi {
             let th = self.rays[k].theta * self.ppr;
             if !self.done[k] && !self.cov.contains(th) {
