@@ -126,7 +126,7 @@ impl Coverage {
 const MAX_STEPS: usize = 4_000_000;
 
 /// Fraction of the allowed row gap the sweep's step aims at.
-pub(super) const AIM: f64 = 0.8;
+pub(super) const AIM: f64 = 0.85;
 
 struct Sweep<'c, 'a> {
     ctx: &'c Ctx<'a>,

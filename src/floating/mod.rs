@@ -179,7 +179,7 @@ pub fn render_floating_column(
     if cam.perspective {
         let (px, st) = with_threads(opts.threads, || radial::render_radial(&ctx, cancel))??;
         total = st;
-        write_rows(&mut buf, &px, shading);
+        write_list(&mut buf, &px, shading);
     } else {
         with_threads(opts.threads, || -> Result<()> {
             // Columns in chunks so that only a few columns' results are in memory.
@@ -261,14 +261,15 @@ pub fn render_floating_column(
     Ok(buf)
 }
 
-fn write_rows(buf: &mut Buffers, px: &[Pixel], shading: &Shading) {
-    let w = buf.width;
-    split_rows(buf, ROWS).into_par_iter().for_each(|mut b| {
-        let base = b.i0 * w;
-        for (k, p) in px[base..b.i1 * w].iter().enumerate() {
-            write_pixel(&mut b, k, p, None, shading);
+/// Write the listed pixels (row-major index, pixel); the others keep their
+/// background.
+fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading) {
+    let h = buf.height.max(1);
+    for mut b in split_rows(buf, h) {
+        for (k, p) in px {
+            write_pixel(&mut b, *k, p, None, shading);
         }
-    });
+    }
 }
 
 /// Rows per block of the parallel writes.

@@ -38,9 +38,9 @@ struct Ray {
     theta: f64,
 }
 
-/// Render all pixels of a perspective view (row-major pixel results) and
-/// the counters.
-pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, ColumnStats)> {
+/// Render a perspective view: the pixels where the surface is seen (each
+/// once, as (row-major index, pixel)) and the counters.
+pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<(usize, Pixel)>, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -126,20 +126,27 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             Ok((sw.out, sw.stats))
         })
         .collect();
-    let mut pixels = vec![Pixel::default(); w * h];
-    // Which pixels are set, compactly (the hole filling scans it).
+    // Which pixels are set and their depths, compactly (for the hole
+    // filling); the pixels themselves stay in one list.
     let mut set = vec![false; w * h];
+    let mut depth = vec![f64::NAN; w * h];
     let mut stats = ColumnStats::default();
+    let mut all = Vec::new();
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
-        for (k, p) in px {
+        for &(k, p) in &px {
             set[k] = p.set;
-            pixels[k] = p;
+            depth[k] = p.depth;
+        }
+        if all.is_empty() {
+            all = px;
+        } else {
+            all.extend(px);
         }
     }
-    fill_holes(ctx, &mut pixels, &mut set, &mut stats);
-    Ok((pixels, stats))
+    fill_holes(ctx, &mut set, &mut depth, &mut all, &mut stats);
+    Ok((all, stats))
 }
 
 /// Screen pixels per radian of elevation along the plane of azimuth φ, over
@@ -173,13 +180,19 @@ fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
 /// own ray does not. Unrevealed pixels between two revealed neighbours
 /// (above and below, or left and right) at similar depths are searched on
 /// their own ray, between the neighbours' hits.
-fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], set: &mut [bool], stats: &mut ColumnStats) {
+fn fill_holes(
+    ctx: &Ctx<'_>,
+    set: &mut [bool],
+    depth: &mut [f64],
+    px: &mut Vec<(usize, Pixel)>,
+    stats: &mut ColumnStats,
+) {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
     let mut sw = RadialSweep::new(ctx, 0.0, &[]);
-    let lam_of = |p: &Pixel, dir: DVec3| -> Option<f64> {
+    let lam_of = |set: &[bool], depth: &[f64], k: usize, dir: DVec3| -> Option<f64> {
         let dd = dir.dot(cam.d);
-        (p.set && dd > 0.0 && p.depth.is_finite()).then(|| p.depth / dd)
+        (set[k] && dd > 0.0 && depth[k].is_finite()).then(|| depth[k] / dd)
     };
     for i in 0..h {
         for j in 0..w {
@@ -197,7 +210,8 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], set: &mut [bool], stats: &mut Col
                 (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
             ];
             for (a, b) in pairs.into_iter().flatten() {
-                let (Some(l1), Some(l2)) = (lam_of(&px[a], dir), lam_of(&px[b], dir)) else {
+                let (Some(l1), Some(l2)) = (lam_of(set, depth, a, dir), lam_of(set, depth, b, dir))
+                else {
                     continue;
                 };
                 let fp = l1.min(l2).max(cam.near) / cam.focal;
@@ -218,13 +232,14 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], set: &mut [bool], stats: &mut Col
                         uv: DVec2::new(q.x, q.y),
                         inten: 0.0,
                     };
-                    let depth = p.depth;
-                    super::refine::finish(ctx, &mut p, dir, depth, DVec2::new(q.x, q.y), &hs);
+                    let z = p.depth;
+                    super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), &hs);
                     if ctx.opts.shading == ShadingMode::Intensity {
                         p.inten = ctx.shading.intensity(p.n, -dir);
                     }
-                    px[i * w + j] = p;
                     set[i * w + j] = true;
+                    depth[i * w + j] = p.depth;
+                    px.push((i * w + j, p));
                     stats.holes_filled += 1;
                     break;
                 }

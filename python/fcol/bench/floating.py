@@ -3,8 +3,16 @@
 grid meshes of increasing resolution), matplotlib's ``plot_surface`` drawn
 to an array, and the floor (NumPy evaluating f, f_u, f_v once per pixel).
 
-Every timing runs in this one process, on the same inputs, one after the
-other; the ratios are what to read (the machines are shared and noisy).
+Rows: every column variant (shadings, corrections on and off) and the
+floating horizon at 480×477 and 1920×1080 with ``x_floor`` (time / NumPy
+floor); the mesh at 50² … 800² with its errors, ``mesh_over_fcol`` (cast
+only, mesh prebuilt) and ``mesh_new_over_fcol`` (tessellate + build + cast:
+a new function) against the default column; the default column with 1 and
+2 rayon workers (``RAYON_NUM_THREADS`` in child processes); nanoseconds per
+pixel at both sizes; the seed's Table 1 sample counts beside ours.
+
+Every other timing runs in this one process, on the same inputs, one after
+the other; the ratios are what to read (the machines are shared and noisy).
 Errors are against ``fcol.testing.reference`` (the exact first hit)."""
 
 from __future__ import annotations
