@@ -65,7 +65,7 @@ impl Default for FloatingOptions {
             refine: true,
             step: 1.0,
             max_step: 2.0,
-            refine_tol: 1e-3,
+            refine_tol: 5e-4,
             refine_iters: 8,
             corrections: Corrections::default(),
             antialias: 1,

@@ -364,3 +364,52 @@ fn fast_atan2_matches_libm() {
         }
     }
 }
+
+#[test]
+fn batched_look_ahead_samples_equal_point_samples() {
+    // The look-ahead evaluates a column's samples in one batch; each must be
+    // the sample the sweep would get point by point, bit for bit (and
+    // `None` off the domain).
+    let d = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+    let f = crate::source::ExprHeight::new("3*sin(u*cos(v)) + exp(-u*v/9)", &[], 0.0, d).unwrap();
+    let cam = Camera::new(&ortho(30.0, 30.0, 13.0), 120, 100).unwrap();
+    let frame = sampling::Frame::new(&cam, d);
+    let shading = crate::shade::Shading::default();
+    for col in [0.0, 37.0, 61.5, 119.0] {
+        let mut sampler = sampling::Sampler {
+            frame: &frame,
+            field: &f,
+            line: frame.column(frame.xpix(col)),
+            evals: 0,
+            folds: 0,
+            lateral_tol: 0.02,
+            d: cam.d,
+            shading: &shading,
+            shade: true,
+        };
+        let ts: Vec<f64> = (0..40).map(|k| -9.0 + 0.47 * k as f64).collect();
+        let mut raw = Vec::new();
+        let mut scratch = sampling::Scratch::default();
+        sampler.sample_many(&ts, &mut raw, &mut scratch);
+        let mut some = 0;
+        for (t, r) in ts.iter().zip(&raw) {
+            let one = sampler.sample(*t, 0.0);
+            match (r, one) {
+                (Some(x), Some(y)) => {
+                    let x = sampler.finish(x.t, x.s, x.uv, x.h, false);
+                    assert_eq!(x.rho.to_bits(), y.rho.to_bits());
+                    assert_eq!(x.z.to_bits(), y.z.to_bits());
+                    assert_eq!(x.drho_dt.to_bits(), y.drho_dt.to_bits());
+                    assert_eq!((x.uv, x.n, x.inten), (y.uv, y.n, y.inten));
+                    some += 1;
+                }
+                (None, None) => {}
+                _ => panic!("column {col}, t = {t}: batch {r:?} vs point {one:?}"),
+            }
+        }
+        assert!(
+            some > 10,
+            "column {col}: only {some} samples on the surface"
+        );
+    }
+}
