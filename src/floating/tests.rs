@@ -375,7 +375,7 @@ fn batched_look_ahead_samples_equal_point_samples() {
     let cam = Camera::new(&ortho(30.0, 30.0, 13.0), 120, 100).unwrap();
     let frame = sampling::Frame::new(&cam, d);
     let shading = crate::shade::Shading::default();
-    for col in [0.0, 37.0, 61.5, 119.0] {
+    for col in [20.0, 37.0, 61.5, 99.0] {
         let mut sampler = sampling::Sampler {
             frame: &frame,
             field: &f,
@@ -387,7 +387,7 @@ fn batched_look_ahead_samples_equal_point_samples() {
             shading: &shading,
             shade: true,
         };
-        let ts: Vec<f64> = (0..40).map(|k| -9.0 + 0.47 * k as f64).collect();
+        let ts: Vec<f64> = (0..120).map(|k| -9.0 + 0.155 * k as f64).collect();
         let mut raw = Vec::new();
         let mut scratch = sampling::Scratch::default();
         sampler.sample_many(&ts, &mut raw, &mut scratch);
