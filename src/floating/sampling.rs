@@ -546,9 +546,4 @@ impl Ahead {
         self.pos = 1;
         (self.taus[0], self.smps[0])
     }
-
-    /// Forget the buffer (the sweep jumped).
-    pub fn reset(&mut self) {
-        self.pos = self.taus.len();
-    }
 }
