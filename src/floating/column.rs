@@ -11,7 +11,7 @@
 //! interpolation, which is still "evaluate only where visible".
 
 use super::artifacts;
-use super::sampling::{Frame, Sample, Sampler};
+use super::sampling::{Ahead, Frame, Raw, Sample, Sampler};
 use super::{FloatingOptions, ShadingMode};
 use crate::camera::Camera;
 use crate::shade::Shading;
@@ -125,6 +125,9 @@ impl Coverage {
 
 const MAX_STEPS: usize = 4_000_000;
 
+/// Fraction of the allowed row gap the sweep's step aims at.
+pub(super) const AIM: f64 = 0.85;
+
 struct Sweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
     sampler: Sampler<'a>,
@@ -133,6 +136,9 @@ struct Sweep<'c, 'a> {
     h: usize,
     stats: ColumnStats,
     jobs: Vec<super::refine::Job>,
+    /// Batched look-ahead (vertical column planes only).
+    ahead: Option<Box<Ahead>>,
+    batch: Vec<Option<Raw>>,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -159,6 +165,8 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         h: ctx.cam.height,
         stats: ColumnStats::default(),
         jobs: Vec::with_capacity(if ctx.refine { ctx.cam.height } else { 0 }),
+        ahead: (line.kappa == 0.0).then(Box::default),
+        batch: Vec::new(),
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
@@ -180,6 +188,12 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
     }
     if !sw.jobs.is_empty() {
         let (failed, evals) = super::refine::solve(ctx, &sw.jobs, out);
+        if ctx.opts.shading == ShadingMode::Normal {
+            for &slot in &failed {
+                let (_, dir) = ctx.cam.ray(slot as f64, col);
+                out[slot].inten = ctx.shading.intensity(out[slot].n, -dir);
+            }
+        }
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed.len() as u64;
     }
@@ -204,6 +218,54 @@ impl<'c, 'a> Sweep<'c, 'a> {
             Some(x) if x.rho.is_finite() && x.z.is_finite() => Some(x),
             _ => None,
         }
+    }
+
+    /// The next sample of a sweep after τ, at τ + h, or at any τ' in
+    /// [τ + h/2, τ + h_max] already evaluated ahead (a smaller step than
+    /// wanted is always safe: the row gap is checked all the same).
+    #[allow(clippy::too_many_arguments)]
+    fn next(
+        &mut self,
+        tt: impl Fn(f64) -> f64,
+        tau: f64,
+        h: f64,
+        h_max: f64,
+        limit: f64,
+        snap: f64,
+        pred: f64,
+    ) -> (f64, Option<Sample>) {
+        let Some(mut ahead) = self.ahead.take() else {
+            let mut tau_n = tau + h;
+            if tau_n >= limit - snap {
+                tau_n = limit;
+            }
+            return (tau_n, self.sample(tt(tau_n), pred));
+        };
+        let hi = (tau + h_max).min(limit);
+        let r = match ahead.take(tau + 0.5 * h, hi) {
+            Some(x) => x,
+            None => {
+                let mut ts = std::mem::take(&mut ahead.ts);
+                ts.clear();
+                ts.extend(ahead.plan(tau, h, limit, snap).iter().map(|&x| tt(x)));
+                let mut batch = std::mem::take(&mut self.batch);
+                self.sampler
+                    .sample_many(&ts, &mut batch, &mut ahead.scratch);
+                ahead.ts = ts;
+                let first = ahead.fill(&mut batch);
+                self.batch = batch;
+                first
+            }
+        };
+        self.ahead = Some(ahead);
+        let s = match r.1 {
+            Some(x) => {
+                let x = self.sampler.finish(x.t, x.s, x.uv, x.h, false);
+                (x.rho.is_finite() && x.z.is_finite()).then_some(x)
+            }
+            None => None,
+        };
+        (r.0, s)
     }
 
     /// Prediction of w' at parameter distance dtau (signed t step) from a.
@@ -253,19 +315,22 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 None => fr.footprint(self.z_guess(tt(tau))),
             };
             let cap = opts.max_step * fp;
-            let mut h = match &prev {
+            // The step aims a little under the row gap allowed (so that
+            // few steps are retried), and any step up to the allowed gap
+            // is taken from the look-ahead.
+            let (mut h, mut h_max) = match &prev {
                 // Deep inside the covered rows nothing can show before the
                 // curve climbs out: take the largest step (checked below).
-                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => cap,
+                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => (cap, cap),
                 Some(a) => {
                     let r = a.drho_dt.abs();
                     if r > 0.0 && r.is_finite() {
-                        (step_px / r).min(cap)
+                        ((AIM * step_px / r).min(cap), (step_px / r).min(cap))
                     } else {
-                        cap
+                        (cap, cap)
                     }
                 }
-                None => cap,
+                None => (cap, cap),
             };
             let limit = match barrier {
                 Some((b, _)) if prev.is_some() => b,
@@ -273,16 +338,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
             };
             let mut halvings = 0;
             loop {
-                let mut tau_n = tau + h;
-                if tau_n >= limit - 1e-12 * fp {
-                    tau_n = limit;
-                }
-                let hh = tau_n - tau;
                 let pred = match &prev {
-                    Some(a) => Self::predict(a, sign * hh),
+                    Some(a) => Self::predict(a, sign * h),
                     None => last_w,
                 };
-                let cand = self.sample(tt(tau_n), pred);
+                let (tau_n, cand) = self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred);
+                let hh = tau_n - tau;
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
@@ -291,6 +352,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                             // Retry at the step the gap suggests (rows vary
                             // about linearly over a small step).
                             h = hh * (0.9 * step_px / gap).clamp(0.05, 0.5);
+                            h_max = h;
                             halvings += 1;
                             continue;
                         }
@@ -457,6 +519,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let ra = self.clamp_row(a.rho);
         let rb = self.clamp_row(b.rho);
         let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+        if self.cov.covers(lo, hi) {
+            // Nothing newly revealed (the common case behind the front).
+            return;
+        }
         let i0 = lo.ceil().max(0.0) as i64;
         let i1 = hi.floor().min(self.h as f64 - 1.0) as i64;
         if i0 <= i1 {
@@ -502,6 +568,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             inten,
         };
         let (o, dir) = self.ctx.cam.ray(row, self.col);
+        let mut queued = false;
         if self.ctx.refine && !wall {
             // Solved later, batched with the column's other pixels.
             let fr = self.ctx.frame;
@@ -519,6 +586,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                     hi: to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span,
                     fp,
                 });
+                queued = true;
             }
         }
         if wall && self.ctx.opts.corrections.walls {
@@ -533,7 +601,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
             px.n = n;
             return px;
         }
-        if self.ctx.opts.shading == ShadingMode::Normal {
+        // A queued pixel is shaded by its exact solve (or, should that
+        // fail, from its interpolated normal afterwards).
+        if self.ctx.opts.shading == ShadingMode::Normal && !queued {
             px.inten = self.ctx.shading.intensity(px.n, -dir);
         }
         px

@@ -65,7 +65,7 @@ impl Default for FloatingOptions {
             refine: true,
             step: 1.0,
             max_step: 2.0,
-            refine_tol: 1e-3,
+            refine_tol: 5e-4,
             refine_iters: 8,
             corrections: Corrections::default(),
             antialias: 1,
@@ -179,7 +179,7 @@ pub fn render_floating_column(
     if cam.perspective {
         let (px, st) = with_threads(opts.threads, || radial::render_radial(&ctx, cancel))??;
         total = st;
-        write_rows(&mut buf, &px, shading);
+        write_list(&mut buf, &px, shading);
     } else {
         with_threads(opts.threads, || -> Result<()> {
             // Columns in chunks so that only a few columns' results are in memory.
@@ -233,13 +233,18 @@ pub fn render_floating_column(
                     done.push((px, acc));
                 }
                 // Row by row, so that the writes into the row-major buffers
-                // are contiguous.
-                for i in 0..height {
-                    for (k, (px, acc)) in done.iter().enumerate() {
-                        let a = if shade_aa { Some(acc[i]) } else { None };
-                        write_pixel(&mut buf, i * width + j0 + k, &px[i], a, shading);
-                    }
-                }
+                // are contiguous (blocks of rows in parallel).
+                split_rows(&mut buf, ROWS)
+                    .into_par_iter()
+                    .for_each(|mut b| {
+                        for i in b.i0..b.i1 {
+                            for (k, (px, acc)) in done.iter().enumerate() {
+                                let a = if shade_aa { Some(acc[i]) } else { None };
+                                let at = (i - b.i0) * width + j0 + k;
+                                write_pixel(&mut b, at, &px[i], a, shading);
+                            }
+                        }
+                    });
                 j0 = j1;
             }
             Ok(())
@@ -256,16 +261,74 @@ pub fn render_floating_column(
     Ok(buf)
 }
 
-fn write_rows(buf: &mut Buffers, px: &[Pixel], shading: &Shading) {
-    for (k, p) in px.iter().enumerate() {
-        write_pixel(buf, k, p, None, shading);
+/// Write the listed pixels (row-major index, pixel); the others keep their
+/// background.
+fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading) {
+    let h = buf.height.max(1);
+    for mut b in split_rows(buf, h) {
+        for (k, p) in px {
+            write_pixel(&mut b, *k, p, None, shading);
+        }
     }
 }
 
-/// Write pixel k (row-major index); `acc` is the supersampled colour and
-/// intensity when column supersampling is on.
+/// Rows per block of the parallel writes.
+const ROWS: usize = 16;
+
+/// Rows i0..i1 of every buffer of a render (row-major slices).
+#[derive(Default)]
+struct RowsMut<'a> {
+    i0: usize,
+    i1: usize,
+    rgb: Option<&'a mut [u8]>,
+    intensity: Option<&'a mut [f32]>,
+    depth: Option<&'a mut [f32]>,
+    normal: Option<&'a mut [f32]>,
+    uv: Option<&'a mut [f32]>,
+    side: Option<&'a mut [i8]>,
+    mask: Option<&'a mut [bool]>,
+}
+
+/// The buffers cut into blocks of `rows` rows (to write them in parallel).
+fn split_rows(buf: &mut Buffers, rows: usize) -> Vec<RowsMut<'_>> {
+    let (w, h) = (buf.width, buf.height);
+    let n = h.div_ceil(rows.max(1));
+    let mut out: Vec<RowsMut<'_>> = (0..n)
+        .map(|b| RowsMut {
+            i0: b * rows,
+            i1: ((b + 1) * rows).min(h),
+            ..Default::default()
+        })
+        .collect();
+    macro_rules! cut {
+        ($f:ident, $ch:expr) => {
+            if let Some(v) = buf.$f.as_mut() {
+                for (o, c) in out.iter_mut().zip(v.chunks_mut(rows * w * $ch)) {
+                    o.$f = Some(c);
+                }
+            }
+        };
+    }
+    cut!(rgb, 3);
+    cut!(intensity, 1);
+    cut!(depth, 1);
+    cut!(normal, 3);
+    cut!(uv, 2);
+    cut!(side, 1);
+    cut!(mask, 1);
+    out
+}
+
+/// Write pixel k (row-major index within the block); `acc` is the
+/// supersampled colour and intensity when column supersampling is on.
 #[inline]
-fn write_pixel(buf: &mut Buffers, k: usize, p: &Pixel, acc: Option<[f64; 4]>, shading: &Shading) {
+fn write_pixel(
+    buf: &mut RowsMut<'_>,
+    k: usize,
+    p: &Pixel,
+    acc: Option<[f64; 4]>,
+    shading: &Shading,
+) {
     if let Some(a) = acc {
         if let Some(rgb) = buf.rgb.as_mut() {
             for c in 0..3 {

@@ -21,7 +21,7 @@
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
-use super::sampling::Sample;
+use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
 use crate::cancel::Cancel;
 use crate::error::Result;
@@ -38,9 +38,9 @@ struct Ray {
     theta: f64,
 }
 
-/// Render all pixels of a perspective view (row-major pixel results) and
-/// the counters.
-pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, ColumnStats)> {
+/// Render a perspective view: the pixels where the surface is seen (each
+/// once, as (row-major index, pixel)) and the counters.
+pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<(usize, Pixel)>, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -78,7 +78,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
     let bin_of = |dir: DVec3| -> usize {
-        let x = (dir.y.atan2(dir.x) + PI) / (2.0 * PI);
+        let x = (fast_atan2(dir.y, dir.x) + PI) / (2.0 * PI);
         ((x * nb as f64) as usize).min(nb - 1)
     };
     // Bin and elevation of every pixel (rows in parallel), then a counting
@@ -89,7 +89,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             (0..w).map(move |j| {
                 let (_, dir) = cam.ray(i as f64, j as f64);
                 let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-                (bin_of(dir) as u32, dir.z.atan2(hl))
+                (bin_of(dir) as u32, fast_atan2(dir.z, hl))
             })
         })
         .collect();
@@ -120,22 +120,59 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
             bin.sort_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
             let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
             let mut sw = RadialSweep::new(ctx, phi, &bin);
+            sw.ppr = bin_ppr(cam, phi, bin[0].theta, bin[bin.len() - 1].theta);
             sw.run();
             sw.solve();
             Ok((sw.out, sw.stats))
         })
         .collect();
-    let mut pixels = vec![Pixel::default(); w * h];
+    // Which pixels are set and their depths, compactly (for the hole
+    // filling); the pixels themselves stay in one list.
+    let mut set = vec![false; w * h];
+    let mut depth = vec![f64::NAN; w * h];
     let mut stats = ColumnStats::default();
+    let mut all = Vec::new();
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
-        for (k, p) in px {
-            pixels[k] = p;
+        for &(k, p) in &px {
+            set[k] = p.set;
+            depth[k] = p.depth;
+        }
+        if all.is_empty() {
+            all = px;
+        } else {
+            all.extend(px);
         }
     }
-    fill_holes(ctx, &mut pixels, &mut stats);
-    Ok((pixels, stats))
+    fill_holes(ctx, &mut set, &mut depth, &mut all, &mut stats);
+    Ok((all, stats))
+}
+
+/// Screen pixels per radian of elevation along the plane of azimuth φ, over
+/// the elevations [θ0, θ1] of a bin's rays (probed, with a 10 % margin), so
+/// that the sweep's row gaps measure pixels on the screen.
+fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
+    let (sp, cp) = phi.sin_cos();
+    let at = |th: f64| {
+        let (s, c) = th.sin_cos();
+        cam.to_screen(cam.eye + DVec3::new(c * cp, c * sp, s))
+    };
+    let delta = 1e-6;
+    let mut m: f64 = 0.0;
+    for k in 0..=4 {
+        let th = th0 + (th1 - th0) * k as f64 / 4.0;
+        let (p1, p2) = (at(th - 0.5 * delta), at(th + 0.5 * delta));
+        let ds = (p2.x - p1.x).hypot(p2.y - p1.y) / delta;
+        if ds.is_finite() {
+            m = m.max(ds);
+        }
+    }
+    if m > 0.0 {
+        1.1 * m
+    } else {
+        1.5 * cam.focal
+    }
 }
 
 /// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
@@ -143,17 +180,28 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<Pixel>, Colu
 /// own ray does not. Unrevealed pixels between two revealed neighbours
 /// (above and below, or left and right) at similar depths are searched on
 /// their own ray, between the neighbours' hits.
-fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
+fn fill_holes(
+    ctx: &Ctx<'_>,
+    set: &mut [bool],
+    depth: &mut [f64],
+    px: &mut Vec<(usize, Pixel)>,
+    stats: &mut ColumnStats,
+) {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
     let mut sw = RadialSweep::new(ctx, 0.0, &[]);
-    let lam_of = |p: &Pixel, dir: DVec3| -> Option<f64> {
+    let lam_of = |set: &[bool], depth: &[f64], k: usize, dir: DVec3| -> Option<f64> {
         let dd = dir.dot(cam.d);
-        (p.set && dd > 0.0 && p.depth.is_finite()).then(|| p.depth / dd)
+        (set[k] && dd > 0.0 && depth[k].is_finite()).then(|| depth[k] / dd)
     };
     for i in 0..h {
         for j in 0..w {
-            if px[i * w + j].set {
+            if set[i * w + j] {
+                continue;
+            }
+            let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
+            let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
+            if !(vertical || lateral) {
                 continue;
             }
             let (_, dir) = cam.ray(i as f64, j as f64);
@@ -162,7 +210,8 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
                 (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
             ];
             for (a, b) in pairs.into_iter().flatten() {
-                let (Some(l1), Some(l2)) = (lam_of(&px[a], dir), lam_of(&px[b], dir)) else {
+                let (Some(l1), Some(l2)) = (lam_of(set, depth, a, dir), lam_of(set, depth, b, dir))
+                else {
                     continue;
                 };
                 let fp = l1.min(l2).max(cam.near) / cam.focal;
@@ -183,12 +232,14 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
                         uv: DVec2::new(q.x, q.y),
                         inten: 0.0,
                     };
-                    let depth = p.depth;
-                    super::refine::finish(ctx, &mut p, dir, depth, DVec2::new(q.x, q.y), &hs);
+                    let z = p.depth;
+                    super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), &hs);
                     if ctx.opts.shading == ShadingMode::Intensity {
                         p.inten = ctx.shading.intensity(p.n, -dir);
                     }
-                    px[i * w + j] = p;
+                    set[i * w + j] = true;
+                    depth[i * w + j] = p.depth;
+                    px.push((i * w + j, p));
                     stats.holes_filled += 1;
                     break;
                 }
@@ -196,6 +247,52 @@ fn fill_holes(ctx: &Ctx<'_>, px: &mut [Pixel], stats: &mut ColumnStats) {
         }
     }
     stats.refine_evals += sw.stats.refine_evals;
+}
+
+/// atan2(y, x) to about 1e-15 rad: Cephes' `atan` (range reduction to |z| ≤ tan(π/8) and a
+/// rational approximation), several times cheaper than libm's `atan2`. The
+/// sweep compares elevations of samples and rays computed by this one
+/// function, so only its monotonicity matters for visibility.
+#[inline]
+pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    if !(y.is_finite() && x.is_finite()) || x == 0.0 || (y == 0.0 && x < 0.0) {
+        return y.atan2(x);
+    }
+    if x < 0.0 {
+        // atan2 in the left half-plane, by symmetry.
+        let r = fast_atan2(y, -x);
+        return if y > 0.0 { PI - r } else { -PI - r };
+    }
+    let q = y / x;
+    let a = q.abs();
+    const T3P8: f64 = 2.414_213_562_373_095; // tan(3π/8)
+    let (base, z) = if a > T3P8 {
+        (FRAC_PI_2, -1.0 / a)
+    } else if a > 0.66 {
+        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    } else {
+        (0.0, a)
+    };
+    let zz = z * z;
+    let p = (((-8.750_608_600_031_904e-1 * zz - 1.615_753_718_733_365e1) * zz
+        - 7.500_855_792_314_705e1)
+        * zz
+        - 1.228_866_684_490_136_1e2)
+        * zz
+        - 6.485_021_904_942_025e1;
+    let qd = ((((zz + 2.485_846_490_142_306_4e1) * zz + 1.650_270_098_316_988_6e2) * zz
+        + 4.328_810_604_912_903e2)
+        * zz
+        + 4.853_903_996_359_137e2)
+        * zz
+        + 1.945_506_571_482_614e2;
+    let r = base + (z + z * zz * p / qd);
+    if q < 0.0 {
+        -r
+    } else {
+        r
+    }
 }
 
 struct RadialSweep<'c, 'a> {
@@ -211,8 +308,12 @@ struct RadialSweep<'c, 'a> {
     jobs: Vec<super::refine::Job>,
     /// Seen side of each job (for the march fallback).
     job_side: Vec<i8>,
-    /// Screen pixels per radian of θ (conservative).
+    /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
+    ahead: Ahead,
+    batch: Vec<Option<Raw>>,
+    /// Where the last span's rays started (in `rays`).
+    cursor: usize,
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -223,11 +324,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             rays,
             done: vec![false; rays.len()],
             cov: Default::default(),
-            out: Vec::new(),
+            out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
-            jobs: Vec::new(),
-            job_side: Vec::new(),
+            jobs: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
+            job_side: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
             ppr: 1.5 * ctx.cam.focal,
+            ahead: Ahead::default(),
+            batch: Vec::new(),
+            cursor: 0,
         }
     }
 
@@ -258,11 +362,58 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         Some(self.finish(rho, uv, hs))
     }
 
+    /// Samples at every ρ of `rhos`, in one batched evaluation (the same
+    /// samples as [`Self::sample`] one by one).
+    fn sample_many(&mut self, rhos: &[f64], out: &mut Vec<Option<Raw>>, sc: &mut Scratch) {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let d = ctx.frame.domain;
+        sc.clear();
+        for &rho in rhos {
+            let uv = DVec2::new(e.x, e.y) + rho * self.eh;
+            sc.u.push(uv.x.clamp(d.u0, d.u1));
+            sc.v.push(uv.y.clamp(d.v0, d.v1));
+        }
+        sc.hs.resize(rhos.len(), HeightSample::default());
+        ctx.field.eval_batch(&sc.u, &sc.v, &mut sc.hs);
+        self.stats.sweep_evals += rhos.len() as u64;
+        out.clear();
+        for (k, &rho) in rhos.iter().enumerate() {
+            let hs = sc.hs[k];
+            out.push(hs.is_finite().then_some(Raw {
+                t: rho,
+                s: 0.0,
+                uv: DVec2::new(sc.u[k], sc.v[k]),
+                h: hs,
+            }));
+        }
+    }
+
+    /// The next sample after ρ: at ρ + h, or at any ρ' in [ρ + h/2,
+    /// ρ + h_max] already evaluated ahead (see [`Ahead`]).
+    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64) -> (f64, Option<Sample>) {
+        let done = |s: &Self, (t, r): (f64, Option<Raw>)| (t, r.map(|x| s.finish(x.t, x.uv, x.h)));
+        if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
+            return done(self, x);
+        }
+        let mut rhos = std::mem::take(&mut self.ahead.ts);
+        rhos.clear();
+        rhos.extend_from_slice(self.ahead.plan(rho, h, r1, 0.0));
+        let mut batch = std::mem::take(&mut self.batch);
+        let mut sc = std::mem::take(&mut self.ahead.scratch);
+        self.sample_many(&rhos, &mut batch, &mut sc);
+        self.ahead.scratch = sc;
+        self.ahead.ts = rhos;
+        let first = self.ahead.fill(&mut batch);
+        self.batch = batch;
+        done(self, first)
+    }
+
     fn finish(&self, rho: f64, uv: DVec2, hs: HeightSample) -> Sample {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
         let wr = hs.f - e.z;
-        let theta = wr.atan2(rho);
+        let theta = fast_atan2(wr, rho);
         let f_rho = hs.fu * self.eh.x + hs.fv * self.eh.y;
         // dθ/dρ = (ρ f_ρ − w') / (ρ² + w'²).
         let dth = (rho * f_rho - wr) / (rho * rho + wr * wr).max(1e-300);
@@ -282,10 +433,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         };
         Sample {
             t: rho,
-            s: 0.0,
             wr,
             uv,
-            h: hs,
             n,
             rho: self.ppr * theta,
             z: (p - e).dot(ctx.cam.d),
@@ -339,31 +488,29 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut steps = 0usize;
         while rho < r1 && steps < 4_000_000 {
             steps += 1;
-            let (cap, mut hstep) = match &prev {
+            let (h_max0, mut hstep) = match &prev {
                 Some(a) => {
                     let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
                     let deep = self.cov.depth(a.rho) > 2.0 * opts.step;
-                    let hs = if !deep && r > 0.0 && r.is_finite() {
-                        (opts.step / r).min(cap)
+                    if !deep && r > 0.0 && r.is_finite() {
+                        (
+                            (opts.step / r).min(cap),
+                            (super::column::AIM * opts.step / r).min(cap),
+                        )
                     } else {
-                        cap
-                    };
-                    (cap, hs)
+                        (cap, cap)
+                    }
                 }
                 None => {
                     let cap = opts.max_step * (rho.max(1e-9 * scale)) / ctx.cam.focal;
                     (cap, cap)
                 }
             };
-            let _ = cap;
+            let mut h_max = h_max0;
             let mut halvings = 0;
             loop {
-                let mut rn = rho + hstep;
-                if rn > r1 {
-                    rn = r1;
-                }
-                let cand = self.sample(rn);
+                let (rn, cand) = self.next(rho, hstep, h_max, r1);
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
@@ -374,6 +521,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                             && (rn - rho) > 1e-9 * fp_at(&a)
                         {
                             hstep = (rn - rho) * (0.9 * opts.step / gap).clamp(0.05, 0.5);
+                            h_max = hstep;
                             halvings += 1;
                             continue;
                         }
@@ -430,7 +578,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         &hs,
                     );
                 }
-                None => self.stats.refine_fail += 1,
+                None => {
+                    self.stats.refine_fail += 1;
+                    if self.ctx.opts.shading == ShadingMode::Normal {
+                        let p = &mut px[slot];
+                        p.inten = self.ctx.shading.intensity(p.n, -j.dir);
+                    }
+                }
             }
         }
         for (o, p) in self.out.iter_mut().zip(px) {
@@ -474,9 +628,22 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         } else {
             (b.rho, a.rho)
         };
+        if self.cov.covers(lo, hi) {
+            // Nothing newly revealed (the common case behind the front).
+            return;
+        }
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
-        let start = self.rays.partition_point(|r| r.theta * self.ppr < lo);
-        let mut k = start;
+        // The first ray with θ ≥ lo, walked to from the previous span's
+        // (consecutive spans share an end).
+        let ppr = self.ppr;
+        let mut k = self.cursor.min(self.rays.len());
+        while k > 0 && self.rays[k - 1].theta * ppr >= lo {
+            k -= 1;
+        }
+        while k < self.rays.len() && self.rays[k].theta * ppr < lo {
+            k += 1;
+        }
+        self.cursor = k;
         while k < self.rays.len() && self.rays[k].theta * self.ppr <= hi {
             let th = self.rays[k].theta * self.ppr;
             if !self.done[k] && !self.cov.contains(th) {
@@ -520,7 +687,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             uv: DVec2::new(q0.x, q0.y),
             inten: a.inten + tau * (b.inten - a.inten),
         };
-        if ctx.refine && !wall {
+        let queued = ctx.refine && !wall;
+        if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
             let la = (pa - e).length();
@@ -543,7 +711,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             px.inten = ctx.shading.intensity(wn, -dir);
             return px;
         }
-        if ctx.opts.shading == ShadingMode::Normal {
+        // A queued pixel is shaded by its exact solve (or, should that
+        // fail, from its interpolated normal afterwards).
+        if ctx.opts.shading == ShadingMode::Normal && !queued {
             px.inten = ctx.shading.intensity(px.n, -dir);
         }
         px

@@ -33,14 +33,20 @@ pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64
     let mut active: Vec<usize> = (0..jobs.len()).collect();
     let mut failed = Vec::new();
     let mut evals = 0u64;
-    let (mut u, mut v, mut hs) = (Vec::new(), Vec::new(), Vec::new());
+    let n = jobs.len();
+    let (mut u, mut v, mut hs) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    let (mut live, mut next) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for _ in 0..ctx.opts.refine_iters {
         if active.is_empty() {
             break;
         }
         u.clear();
         v.clear();
-        let mut live = Vec::with_capacity(active.len());
+        live.clear();
         for &k in &active {
             let p = jobs[k].o + lam[k] * jobs[k].dir;
             if dom.contains(p.x, p.y) {
@@ -55,7 +61,7 @@ pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64
         hs.resize(live.len(), HeightSample::default());
         ctx.field.eval_batch(&u, &v, &mut hs);
         evals += live.len() as u64;
-        let mut next = Vec::with_capacity(live.len());
+        next.clear();
         for (n, &k) in live.iter().enumerate() {
             let j = &jobs[k];
             let h = hs[n];
@@ -100,7 +106,7 @@ pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64
                 next.push(k);
             }
         }
-        active = next;
+        std::mem::swap(&mut active, &mut next);
     }
     failed.extend(active.iter().map(|&k| jobs[k].slot));
     failed.sort_unstable();

@@ -229,11 +229,9 @@ pub struct ColumnLine {
 #[derive(Debug, Clone, Copy)]
 pub struct Sample {
     pub t: f64,
-    pub s: f64,
     /// w − O_w.
     pub wr: f64,
     pub uv: DVec2,
-    pub h: HeightSample,
     /// Unit upper-side normal.
     pub n: DVec3,
     /// Continuous row and camera depth.
@@ -255,6 +253,34 @@ impl Sample {
     #[inline]
     pub fn world(&self, frame: &Frame) -> DVec3 {
         DVec3::new(self.uv.x, self.uv.y, self.wr + frame.origin.z)
+    }
+}
+
+/// A point evaluated ahead: its derived quantities are computed only if the
+/// sweep takes it ([`Sampler::finish`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Raw {
+    pub t: f64,
+    pub s: f64,
+    pub uv: DVec2,
+    pub h: HeightSample,
+}
+
+/// Reusable buffers of a batched evaluation.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    pub u: Vec<f64>,
+    pub v: Vec<f64>,
+    pub idx: Vec<usize>,
+    pub hs: Vec<HeightSample>,
+}
+
+impl Scratch {
+    pub fn clear(&mut self) {
+        self.u.clear();
+        self.v.clear();
+        self.idx.clear();
+        self.hs.clear();
     }
 }
 
@@ -287,6 +313,42 @@ impl<'a> Sampler<'a> {
         let eu = 1e-12 * (d.u1 - d.u0).abs().max(d.u0.abs().max(d.u1.abs()));
         let ev = 1e-12 * (d.v1 - d.v0).abs().max(d.v0.abs().max(d.v1.abs()));
         uv.x >= d.u0 - eu && uv.x <= d.u1 + eu && uv.y >= d.v0 - ev && uv.y <= d.v1 + ev
+    }
+
+    /// Samples at every t of `ts` with one batched evaluation, for columns
+    /// whose plane is vertical (κ = 0: every sample is one evaluation, so
+    /// the batch gives exactly what [`Self::sample`] gives point by point).
+    /// Points outside the domain are `None` and not evaluated.
+    pub fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
+        debug_assert!(self.line.kappa == 0.0);
+        let fr = *self.frame;
+        let s = self.line.s0;
+        scratch.clear();
+        for (k, &t) in ts.iter().enumerate() {
+            let uv = fr.uv(s + self.line.a * t, t);
+            if self.inside(uv) {
+                scratch.u.push(uv.x);
+                scratch.v.push(uv.y);
+                scratch.idx.push(k);
+            }
+        }
+        scratch.hs.resize(scratch.u.len(), HeightSample::default());
+        self.field
+            .eval_batch(&scratch.u, &scratch.v, &mut scratch.hs);
+        self.evals += scratch.u.len() as u64;
+        out.clear();
+        out.resize(ts.len(), None);
+        for (n, &k) in scratch.idx.iter().enumerate() {
+            let h = scratch.hs[n];
+            if h.is_finite() {
+                out[k] = Some(Raw {
+                    t: ts[k],
+                    s: s + self.line.a * ts[k],
+                    uv: DVec2::new(scratch.u[n], scratch.v[n]),
+                    h,
+                });
+            }
+        }
     }
 
     /// The surface point of the column's curve at t, starting the in-plane
@@ -388,12 +450,11 @@ impl<'a> Sampler<'a> {
         } else {
             (0.0, 0.0, DVec3::ZERO)
         };
+        let _ = s;
         Sample {
             t,
-            s,
             wr,
             uv,
-            h,
             n,
             rho,
             z,
@@ -404,5 +465,85 @@ impl<'a> Sampler<'a> {
             lxn,
             fold,
         }
+    }
+}
+
+/// Speculative look-ahead of a sweep: the next few samples along the sweep,
+/// evaluated in one batch at a constant step (batched evaluation costs a
+/// fraction of point-by-point evaluation). The sweep takes the farthest
+/// buffered sample within the step it wants, and refills when none fits;
+/// samples skipped or discarded were evaluated all the same and are counted.
+#[derive(Debug)]
+pub struct Ahead {
+    taus: Vec<f64>,
+    smps: Vec<Option<Raw>>,
+    pos: usize,
+    k: usize,
+    pub scratch: Scratch,
+    /// Sweep parameter → sampling parameter of each new batch.
+    pub ts: Vec<f64>,
+}
+
+/// Most samples evaluated ahead in one batch.
+pub const AHEAD_MAX: usize = 32;
+
+impl Default for Ahead {
+    fn default() -> Self {
+        Ahead {
+            taus: Vec::new(),
+            smps: Vec::new(),
+            pos: 0,
+            k: 4,
+            scratch: Scratch::default(),
+            ts: Vec::new(),
+        }
+    }
+}
+
+impl Ahead {
+    /// The farthest buffered sample with sweep parameter in (lo, hi].
+    pub fn take(&mut self, lo: f64, hi: f64) -> Option<(f64, Option<Raw>)> {
+        let mut best = None;
+        let mut j = self.pos;
+        while j < self.taus.len() && self.taus[j] <= hi {
+            if self.taus[j] > lo {
+                best = Some(j);
+            }
+            j += 1;
+        }
+        let j = best?;
+        self.pos = j + 1;
+        Some((self.taus[j], self.smps[j]))
+    }
+
+    /// Sweep parameters of a new batch: τ + m·h for m = 1, 2, … (at most the
+    /// adaptive batch size), the last one snapped to `limit`. The batch
+    /// grows while batches are used up and shrinks when one is abandoned.
+    pub fn plan(&mut self, tau: f64, h: f64, limit: f64, snap: f64) -> &[f64] {
+        if self.pos < self.taus.len() {
+            self.k = (self.k / 2).max(1);
+        } else if !self.taus.is_empty() {
+            self.k = (2 * self.k).min(AHEAD_MAX);
+        }
+        self.taus.clear();
+        self.pos = 0;
+        for m in 1..=self.k {
+            let mut t = tau + m as f64 * h;
+            if t >= limit - snap {
+                t = limit;
+            }
+            self.taus.push(t);
+            if t >= limit {
+                break;
+            }
+        }
+        &self.taus
+    }
+
+    /// Store the samples of the planned batch and take the first.
+    pub fn fill(&mut self, smps: &mut Vec<Option<Raw>>) -> (f64, Option<Raw>) {
+        std::mem::swap(&mut self.smps, smps);
+        self.pos = 1;
+        (self.taus[0], self.smps[0])
     }
 }

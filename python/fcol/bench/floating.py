@@ -3,12 +3,24 @@
 grid meshes of increasing resolution), matplotlib's ``plot_surface`` drawn
 to an array, and the floor (NumPy evaluating f, f_u, f_v once per pixel).
 
-Every timing runs in this one process, on the same inputs, one after the
-other; the ratios are what to read (the machines are shared and noisy).
+Rows: every column variant (shadings, corrections on and off) and the
+floating horizon at 480×477 and 1920×1080 with ``x_floor`` (time / NumPy
+floor); the mesh at 50² … 800² with its errors, ``mesh_over_fcol`` (cast
+only, mesh prebuilt) and ``mesh_new_over_fcol`` (tessellate + build + cast:
+a new function) against the default column; the default column with 1 and
+2 rayon workers (``RAYON_NUM_THREADS`` in child processes); nanoseconds per
+pixel at both sizes; the seed's Table 1 sample counts beside ours.
+
+Every other timing runs in this one process, on the same inputs, one after
+the other; the ratios are what to read (the machines are shared and noisy).
 Errors are against ``fcol.testing.reference`` (the exact first hit)."""
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -162,6 +174,27 @@ VARIANTS = {
 }
 
 
+CHILD = """
+import json, fcol
+from fcol.bench import median_time
+from fcol.bench.floating import EXPR, DOMAIN, views
+surf = fcol.Function(EXPR, domain=DOMAIN)
+view = views()[{view!r}]
+outs = ("rgb", "depth", "normal", "mask")
+t = median_time(lambda: fcol.render(surf, view, {w}, {h}, outputs=outs), repeat={repeat})
+print(json.dumps(dict(seconds=t)))
+"""
+
+
+def _child_time(view: str, w: int, h: int, threads: int, repeat: int) -> float:
+    """Median time of the default floating column in a child process whose
+    rayon pool has ``threads`` workers (RAYON_NUM_THREADS)."""
+    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+    code = CHILD.format(view=view, w=w, h=h, repeat=repeat)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    return float(json.loads(out.strip().splitlines()[-1])["seconds"])
+
+
 def run(out_dir: Path, quick: bool) -> list[dict]:
     from fcol.testing.reference import compare, height_reference
 
@@ -169,64 +202,80 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
     rows: list[dict] = []
     plot: list[tuple[str, float, float]] = []
     W, H = 480, 477
-    repeat = 3 if quick else 7
-    floor = {(W, H): numpy_floor(W, H)}
-    rows.append(dict(method="numpy floor (f, f_u, f_v per pixel)", size=f"{W}x{H}", ms=1e3 * floor[(W, H)]))
-    for vname, view in views().items():
-        t0 = time.perf_counter()
-        ref = height_reference(f_np, grad_np, DOMAIN, view, W, H)
-        ref_s = time.perf_counter() - t0
-        rows.append(dict(method="reference (exact hit)", view=vname, size=f"{W}x{H}", ms=1e3 * ref_s))
-        base = None
-        for label, opts in VARIANTS.items():
-            outs = ("rgb", "depth", "normal", "mask")
-            img = fcol.render(surf, view, W, H, outputs=outs, **opts)
-            t = median_time(lambda: fcol.render(surf, view, W, H, outputs=outs, **opts), repeat=repeat)
-            res = compare(img, ref, view)
-            row = dict(method=label, view=vname, size=f"{W}x{H}", ms=1e3 * t, samples=img.samples,
-                       x_floor=t / floor[(W, H)], mask_bad=res.get("mask_bad"),
-                       depth_p99=res.get("depth_px_p99"), normal_med=res.get("normal_deg_median"),
-                       normal_p99=res.get("normal_deg_p99"), ssim=res.get("ssim"))
-            if base is None:
-                base = row
-                t1 = median_time(lambda: fcol.render(surf, view, W, H, outputs=outs, threads=1, **opts), repeat=repeat)
-                row["speedup_2threads"] = t1 / t
-            rows.append(row)
-            plot.append((f"fcol {label} ({vname})", t, res.get("normal_deg_p99", np.nan)))
-        # Floating horizon (lines only: time and samples).
-        img = fcol.render(surf, view, W, H, method="floating_horizon", outputs=("lines",))
-        t = median_time(lambda: fcol.render(surf, view, W, H, method="floating_horizon", outputs=("lines",)), repeat=repeat)
-        rows.append(dict(method="horizon (lines, 80 planes)", view=vname, size=f"{W}x{H}", ms=1e3 * t, samples=img.samples))
-        # The mesh approach at increasing resolution.
-        for n in ((100, 200) if quick else (50, 100, 200, 400, 800)):
-            tb0 = time.perf_counter()
-            mc = MeshCaster(n)
-            got = mc.cast(view, W, H)
-            t_new = time.perf_counter() - tb0
-            t_cast = median_time(lambda: mc.cast(view, W, H), repeat=3)
-            res = compare(got, ref, view)
-            rows.append(dict(method=f"mesh {n}x{n} (trimesh+embreex)", view=vname, size=f"{W}x{H}",
-                             ms=1e3 * t_cast, ms_with_build=1e3 * t_new, mask_bad=res.get("mask_bad"),
-                             depth_p99=res.get("depth_px_p99"), normal_med=res.get("normal_deg_median"),
-                             normal_p99=res.get("normal_deg_p99"),
-                             x_fcol=t_cast / (base["ms"] / 1e3), x_fcol_new=t_new / (base["ms"] / 1e3)))
-            plot.append((f"mesh {n}² ({vname})", t_cast, res.get("normal_deg_p99", np.nan)))
-    # matplotlib plot_surface to an array (its own camera: time only).
-    for n in (50, 100):
-        t = median_time(lambda: matplotlib_plot(n, W, H), repeat=3, min_time=0.0)
-        rows.append(dict(method=f"matplotlib plot_surface {n}x{n}", size=f"{W}x{H}", ms=1e3 * t))
-    # Scaling with image size.
-    sizes = [(W, H)] if quick else [(W, H), (960, 540), (1920, 1080)]
-    for (w, h) in sizes[1:]:
+    repeat = 3 if quick else 5
+    sizes = [(W, H)] if quick else [(W, H), (1920, 1080)]
+    outs = ("rgb", "depth", "normal", "mask")
+    floor: dict[tuple[int, int], float] = {}
+    default: dict[tuple[str, int, int], float] = {}
+    normal_p99: dict[str, float] = {}
+    for (w, h) in sizes:
         floor[(w, h)] = numpy_floor(w, h)
         rows.append(dict(method="numpy floor (f, f_u, f_v per pixel)", size=f"{w}x{h}", ms=1e3 * floor[(w, h)]))
         for vname, view in views().items():
-            for label in ("column default (exact, normal)", "column nis (Phong, no refine)"):
-                opts = VARIANTS[label]
-                img = fcol.render(surf, view, w, h, outputs=("rgb", "depth", "normal", "mask"), **opts)
-                t = median_time(lambda: fcol.render(surf, view, w, h, outputs=("rgb", "depth", "normal", "mask"), **opts), repeat=3)
-                rows.append(dict(method=label, view=vname, size=f"{w}x{h}", ms=1e3 * t, samples=img.samples,
-                                 x_floor=t / floor[(w, h)]))
+            ref = None
+            if (w, h) == (W, H):
+                t0 = time.perf_counter()
+                ref = height_reference(f_np, grad_np, DOMAIN, view, w, h)
+                rows.append(dict(method="reference (exact hit)", view=vname, size=f"{w}x{h}",
+                                 ms=1e3 * (time.perf_counter() - t0)))
+            for label, opts in VARIANTS.items():
+                img = fcol.render(surf, view, w, h, outputs=outs, **opts)
+                t = median_time(lambda: fcol.render(surf, view, w, h, outputs=outs, **opts), repeat=repeat)
+                row = dict(method=label, view=vname, size=f"{w}x{h}", ms=1e3 * t, samples=img.samples,
+                           x_floor=t / floor[(w, h)])
+                if ref is not None:
+                    res = compare(img, ref, view)
+                    row.update(mask_bad=res.get("mask_bad"), depth_p99=res.get("depth_px_p99"),
+                               normal_med=res.get("normal_deg_median"), normal_p99=res.get("normal_deg_p99"),
+                               ssim=res.get("ssim"))
+                    plot.append((f"fcol {label} ({vname})", t, res.get("normal_deg_p99", np.nan)))
+                    if not opts:
+                        normal_p99[vname] = float(res.get("normal_deg_p99", np.nan))
+                if not opts:
+                    default[(vname, w, h)] = t
+                rows.append(row)
+            # Floating horizon (lines only: time and samples).
+            hz = dict(method="floating_horizon", outputs=("lines",))
+            img = fcol.render(surf, view, w, h, **hz)
+            t = median_time(lambda: fcol.render(surf, view, w, h, **hz), repeat=repeat)
+            rows.append(dict(method="horizon (lines, 80 planes)", view=vname, size=f"{w}x{h}", ms=1e3 * t,
+                             samples=img.samples, x_floor=t / floor[(w, h)]))
+            if ref is None:
+                continue
+            # The mesh approach at increasing resolution (prebuilt: cast
+            # only; new function: tessellate + build + cast).
+            base = default[(vname, w, h)]
+            for n in ((100, 200) if quick else (50, 100, 200, 400, 800)):
+                tb0 = time.perf_counter()
+                mc = MeshCaster(n)
+                got = mc.cast(view, w, h)
+                t_new = time.perf_counter() - tb0
+                t_cast = median_time(lambda: mc.cast(view, w, h), repeat=3)
+                res = compare(got, ref, view)
+                rows.append(dict(method=f"mesh {n}x{n} (trimesh+embreex)", view=vname, size=f"{w}x{h}",
+                                 ms=1e3 * t_cast, ms_with_build=1e3 * t_new, mask_bad=res.get("mask_bad"),
+                                 depth_p99=res.get("depth_px_p99"), normal_med=res.get("normal_deg_median"),
+                                 normal_p99=res.get("normal_deg_p99"),
+                                 mesh_over_fcol=t_cast / base, mesh_new_over_fcol=t_new / base))
+                plot.append((f"mesh {n}² ({vname})", t_cast, res.get("normal_deg_p99", np.nan)))
+    # matplotlib plot_surface to an array (its own camera: time only).
+    for n in (50, 100):
+        t = median_time(lambda: matplotlib_plot(n, W, H), repeat=3, min_time=0.0)
+        rows.append(dict(method=f"matplotlib plot_surface {n}x{n}", size=f"{W}x{H}", ms=1e3 * t,
+                         mpl_over_fcol=t / default[("ortho", W, H)]))
+    # Threads: the default column in child processes, 1 and 2 rayon workers.
+    for (w, h) in sizes:
+        for vname in views():
+            t1 = _child_time(vname, w, h, 1, repeat)
+            t2 = _child_time(vname, w, h, 2, repeat)
+            rows.append(dict(method="column default, RAYON_NUM_THREADS=1 / 2", view=vname, size=f"{w}x{h}",
+                             ms=1e3 * t2, ms_1thread=1e3 * t1, speedup_2threads=t1 / t2))
+    # Scaling with image size: time per pixel of the default column.
+    for (w, h) in sizes:
+        for vname in views():
+            t = default[(vname, w, h)]
+            rows.append(dict(method="column default: ns per pixel", view=vname, size=f"{w}x{h}",
+                             ns_per_px=1e9 * t / (w * h), x_floor=t / floor[(w, h)]))
     # The seed's Table 1 sample counts beside ours (480 × 477).
     for fig, n in SEED_SAMPLES.items():
         rows.append(dict(method=f"seed Table 1: Fig. {fig}", size="480x477", samples=n))
