@@ -158,6 +158,13 @@ pub fn render(
     let x_left = -0.5 * width as f64;
     let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
     let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
+    // Depth unit of the sampled scan's cross-section angle: one pixel at
+    // the view distance.
+    let zs = match view.projection {
+        crate::camera::Projection::Perspective { distance, .. } => cam.pixel_size_at(distance),
+        crate::camera::Projection::Orthographic { .. } => cam.pixel_size_at(1.0),
+    };
+    let sampled = matches!(opts.x_scan, XScanMode::Sampled { .. });
     cancel.check()?;
     let ys_of = |i: usize| 0.5 * height as f64 - i as f64 - 0.5;
     let bands: Vec<(usize, usize)> = (0..height)
@@ -180,6 +187,7 @@ pub fn render(
                     step: std::f64::consts::TAU / per_turn as f64,
                     max_error: max_error.to_radians(),
                 });
+                xscan.zs = zs;
             }
             let mut st = BandStats::default();
             let mut trackers: Vec<Tracker> = Vec::new();
@@ -200,7 +208,13 @@ pub fn render(
                 );
                 hits.iter_mut().for_each(|h| *h = None);
                 let row = &mut pix[(i - r0) * width..(i - r0 + 1) * width];
+                if sampled {
+                    xscan.sampled_begin(&trackers, ys, opts.extrapolate, &mut st.x);
+                }
                 xscan.row(&trackers, ys, &mut hits, &mut st.x);
+                if sampled {
+                    xscan.sampled_end(&mut st.x);
+                }
                 for (o, h) in row.iter_mut().zip(&hits) {
                     *o = h.as_ref().and_then(Pixel::from_hit);
                 }
@@ -260,6 +274,31 @@ pub fn render(
         b.stat("x_samples", s.samples as f64);
         b.stat("x_samples_refined", s.refined as f64);
         b.stat("turn_points", s.turns as f64);
+        b.stat("x_span_tests", s.span_tests as f64);
+        // Normal-angle trackers (§4): Newton corrections per update from
+        // the previous position (plain) and from the §3.5 extrapolation.
+        b.stat(
+            "theta_updates",
+            (s.theta_updates + s.theta_updates_ex) as f64,
+        );
+        b.stat(
+            "theta_newton_per_update",
+            per(
+                s.theta_iters + s.theta_iters_ex,
+                s.theta_updates + s.theta_updates_ex,
+            ),
+        );
+        b.stat(
+            "theta_newton_per_update_plain",
+            per(s.theta_iters, s.theta_updates),
+        );
+        b.stat(
+            "theta_newton_per_update_extrapolated",
+            per(s.theta_iters_ex, s.theta_updates_ex),
+        );
+        b.stat("theta_trackers_created", s.theta_created as f64);
+        b.stat("theta_trackers_deleted", s.theta_deleted as f64);
+        b.stat("theta_trackers_lost", s.theta_lost as f64);
     }
     Ok(b)
 }

@@ -55,6 +55,21 @@ pub struct XStats {
     pub turns: u64,
     /// Newton solves made to place and check samples.
     pub sample_solves: u64,
+    /// Sampled X scan: normal-angle tracker updates from the previous scan
+    /// line (from the previous position: plain; from the §3.5
+    /// extrapolation) and the Newton corrections they made.
+    pub theta_updates: u64,
+    pub theta_iters: u64,
+    pub theta_updates_ex: u64,
+    pub theta_iters_ex: u64,
+    /// Normal-angle trackers whose update failed (deleted, §3.2.3), deleted
+    /// as unused or duplicate, and created (sideways iteration §4.2 or
+    /// refinement).
+    pub theta_lost: u64,
+    pub theta_deleted: u64,
+    pub theta_created: u64,
+    /// Middle-pixel tests of spans.
+    pub span_tests: u64,
 }
 
 impl XStats {
@@ -71,6 +86,14 @@ impl XStats {
         self.refined += o.refined;
         self.turns += o.turns;
         self.sample_solves += o.sample_solves;
+        self.theta_updates += o.theta_updates;
+        self.theta_iters += o.theta_iters;
+        self.theta_updates_ex += o.theta_updates_ex;
+        self.theta_iters_ex += o.theta_iters_ex;
+        self.theta_lost += o.theta_lost;
+        self.theta_deleted += o.theta_deleted;
+        self.theta_created += o.theta_created;
+        self.span_tests += o.span_tests;
     }
 }
 
@@ -98,6 +121,10 @@ pub struct XScan<'a> {
     pub saddles: Vec<ScreenSample>,
     /// Checked every few dozen pixels (slow surfaces: Python callables).
     pub cancel: Option<&'a crate::cancel::Cancel>,
+    /// Sampled X scan: depth unit (the pixel size at the view distance) of
+    /// the cross-section angle, and the normal-angle trackers of the band.
+    pub zs: f64,
+    pub pool: std::cell::RefCell<super::xscan_sampled::Pool>,
 }
 
 impl<'a> XScan<'a> {
@@ -110,6 +137,8 @@ impl<'a> XScan<'a> {
             sampled: None,
             saddles: Vec::new(),
             cancel: None,
+            zs: 1.0,
+            pool: Default::default(),
         }
     }
 
