@@ -275,6 +275,7 @@ pub fn render(
         b.stat("x_samples_refined", s.refined as f64);
         b.stat("turn_points", s.turns as f64);
         b.stat("x_span_tests", s.span_tests as f64);
+        b.stat("x_links_kept", s.links_kept as f64);
         // Normal-angle trackers (§4): Newton corrections per update from
         // the previous position (plain) and from the §3.5 extrapolation.
         b.stat(

@@ -68,8 +68,10 @@ pub struct XStats {
     pub theta_lost: u64,
     pub theta_deleted: u64,
     pub theta_created: u64,
-    /// Middle-pixel tests of spans.
+    /// Middle-pixel tests of spans, and spans taken from the previous
+    /// scan line's links without a test.
     pub span_tests: u64,
+    pub links_kept: u64,
 }
 
 impl XStats {
@@ -94,6 +96,7 @@ impl XStats {
         self.theta_deleted += o.theta_deleted;
         self.theta_created += o.theta_created;
         self.span_tests += o.span_tests;
+        self.links_kept += o.links_kept;
     }
 }
 
@@ -169,6 +172,20 @@ impl<'a> XScan<'a> {
         xp: f64,
         iters: &mut u64,
     ) -> Option<ScreenSample> {
+        self.newton_tol(u, v, ys, xp, 1e-9, iters)
+    }
+
+    /// [`newton`](Self::newton) stopping once |y − ys| and |x − xp| are
+    /// below `tol` pixels.
+    pub fn newton_tol(
+        &self,
+        u: f64,
+        v: f64,
+        ys: f64,
+        xp: f64,
+        tol: f64,
+        iters: &mut u64,
+    ) -> Option<ScreenSample> {
         let d = self.sc.dom;
         let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
         for _ in 0..12 {
@@ -182,8 +199,9 @@ impl<'a> XScan<'a> {
             if !(du.is_finite() && dv.is_finite()) {
                 return None;
             }
-            if (f.abs() < 1e-9 && g.abs() < 1e-9) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
-                return (f.abs() < 1e-6 && g.abs() < 1e-6).then_some(s);
+            if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
+                let ok = tol.max(1e-6);
+                return (f.abs() < ok && g.abs() < ok).then_some(s);
             }
             if du.abs().max(dv.abs()) > 0.25 * self.ext {
                 return None;
@@ -399,6 +417,19 @@ impl<'a> XScan<'a> {
         xp: f64,
         st: &mut XStats,
     ) -> Option<ScreenSample> {
+        self.try_newton_tol(cur, sigma, ys, xp, 1e-9, st)
+    }
+
+    /// [`try_newton`](Self::try_newton) to a tolerance of `tol` pixels.
+    pub(crate) fn try_newton_tol(
+        &self,
+        cur: &ScreenSample,
+        sigma: f64,
+        ys: f64,
+        xp: f64,
+        tol: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
         let jc = cur.jac();
         let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
         if jc * sigma <= 1e-3 * jscale {
@@ -408,7 +439,7 @@ impl<'a> XScan<'a> {
         let (g, f) = (xp - cur.x, ys - cur.y);
         let pu = (g * cur.yv - cur.xv * f) / jc;
         let pv = (cur.xu * f - cur.yu * g) / jc;
-        let q = self.newton(cur.u + pu, cur.v + pv, ys, xp, &mut st.pixel_iters)?;
+        let q = self.newton_tol(cur.u + pu, cur.v + pv, ys, xp, tol, &mut st.pixel_iters)?;
         let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
         let pred = pu.abs().max(pv.abs());
         (q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext).then_some(q)

@@ -76,7 +76,39 @@ pub struct Sample {
     pub prev: Option<(f64, f64)>,
     /// ϑ of the cross-section at s, in (−π/2, π/2].
     pub phi: f64,
+    /// Identity of a carried sample (0: none), the sample it was linked
+    /// to on the previous scan line (§4.2), scan lines since that link was
+    /// last tested, and whether its span takes the Hermite depth.
+    pub id: u64,
+    pub link: u64,
+    pub age: u8,
+    pub herm: bool,
 }
+
+impl Sample {
+    fn new(kind: SKind, s: ScreenSample, phi: f64) -> Sample {
+        Sample {
+            kind,
+            s,
+            prev: None,
+            phi,
+            id: 0,
+            link: 0,
+            age: 0,
+            herm: false,
+        }
+    }
+}
+
+/// Where a sample of the current scan line is stored.
+#[derive(Debug, Clone, Copy)]
+enum Loc {
+    Cur(usize),
+    Born(usize),
+}
+
+/// Scan lines a link is trusted without a new middle-pixel test.
+const LINK_AGE: u8 = 4;
 
 /// The samples of one band: those carried to the current scan line
 /// (sorted by x) and those made on it.
@@ -86,6 +118,7 @@ pub struct Pool {
     pub used: Vec<bool>,
     pub born: Vec<Sample>,
     pub keep: Vec<Sample>,
+    pub next_id: u64,
 }
 
 /// Angle difference wrapped to (−π/2, π/2] (ϑ is a line direction).
@@ -132,8 +165,9 @@ fn jk(s: &ScreenSample, d: DVec3) -> Jk {
 
 /// Outcome of the middle-pixel test of a span.
 enum Test {
-    /// Interpolate (Hermite depth or not).
-    Accept(bool),
+    /// Interpolate (Hermite depth or not); whether the errors were within
+    /// half the bounds (the link may then be kept untested for a while).
+    Accept(bool, bool),
     /// b is not on a's arc (or the solve failed).
     WrongArc,
     /// ϑ turns back inside the span; the middle solution.
@@ -279,10 +313,10 @@ impl<'a> XScan<'a> {
                         st.theta_iters += it as u64;
                     }
                     cur.push(Sample {
-                        kind: t.kind,
                         s,
                         prev: Some((t.s.u, t.s.v)),
                         phi: self.phi(&s),
+                        ..t
                     });
                 }
                 None => st.theta_lost += 1,
@@ -294,12 +328,7 @@ impl<'a> XScan<'a> {
                 Kind::Edge(_) => SKind::Edge,
                 Kind::Left => continue,
             };
-            cur.push(Sample {
-                kind,
-                s: t.s,
-                prev: None,
-                phi: self.phi(&t.s),
-            });
+            cur.push(Sample::new(kind, t.s, self.phi(&t.s)));
         }
         cur.sort_by(|a, b| {
             a.s.x
@@ -348,19 +377,43 @@ impl<'a> XScan<'a> {
         pool.keep = keep;
     }
 
-    fn mark_used(&self, idx: Option<usize>, b: &Sample, st: &mut XStats) {
+    /// Mark a sample as used on this scan line (a new one is stored and
+    /// given an identity); where it is stored and its identity.
+    fn mark_used(&self, idx: Option<usize>, b: &mut Sample, st: &mut XStats) -> Option<Loc> {
         let mut pool = self.pool.borrow_mut();
         match idx {
-            Some(i) => pool.used[i] = true,
+            Some(i) => {
+                pool.used[i] = true;
+                Some(Loc::Cur(i))
+            }
             None => {
                 if matches!(b.kind, SKind::Theta(_) | SKind::Turn) {
                     if b.kind == SKind::Turn {
                         st.turns += 1;
                     }
+                    pool.next_id += 1;
+                    b.id = pool.next_id;
+                    b.link = 0;
                     pool.born.push(*b);
+                    Some(Loc::Born(pool.born.len() - 1))
+                } else {
+                    None
                 }
             }
         }
+    }
+
+    /// Record the link a → b (tested now when `age` is 0).
+    fn set_link(&self, loc: Option<Loc>, b: &Sample, age: u8, herm: bool) {
+        let Some(loc) = loc else { return };
+        let mut pool = self.pool.borrow_mut();
+        let a = match loc {
+            Loc::Cur(i) => &mut pool.cur[i],
+            Loc::Born(i) => &mut pool.born[i],
+        };
+        a.link = b.id;
+        a.age = age;
+        a.herm = herm;
     }
 
     /// Test the span a → b (b ahead in x) at its middle pixel.
@@ -377,7 +430,8 @@ impl<'a> XScan<'a> {
     ) -> Test {
         let xm = 0.5 * (a.s.x + b.s.x);
         st.sample_solves += 1;
-        let Some(m) = self.try_newton(&a.s, sigma, ys, xm, st) else {
+        // A thousandth of a pixel is plenty for a test point.
+        let Some(m) = self.try_newton_tol(&a.s, sigma, ys, xm, 1e-3, st) else {
             return Test::WrongArc;
         };
         let l = (b.s.u - a.s.u).abs().max((b.s.v - a.s.v).abs());
@@ -400,7 +454,7 @@ impl<'a> XScan<'a> {
             .hermite_mid(a, b)
             .map_or(f64::INFINITY, |zh| (zh - m.z).abs() / pix);
         if err <= p.max_error && el.min(eh) <= 1.0 {
-            Test::Accept(eh < el)
+            Test::Accept(eh < el, err <= 0.5 * p.max_error && el.min(eh) <= 0.5)
         } else {
             Test::Coarse(m)
         }
@@ -501,12 +555,7 @@ impl<'a> XScan<'a> {
             return None;
         }
         let (s, _) = self.track(SKind::Theta(k), m.u, m.v, ys)?;
-        (s.x > a.s.x && s.x < b.s.x).then(|| Sample {
-            kind: SKind::Theta(k),
-            s,
-            prev: None,
-            phi: self.phi(&s),
-        })
+        (s.x > a.s.x && s.x < b.s.x).then(|| Sample::new(SKind::Theta(k), s, self.phi(&s)))
     }
 
     /// Solve the pixels with centres in (a.x, b.x] exactly from a; false if
@@ -547,6 +596,7 @@ impl<'a> XScan<'a> {
     fn span(
         &self,
         a: &Sample,
+        a_loc: Option<Loc>,
         dir: f64,
         sigma: f64,
         ys: f64,
@@ -554,7 +604,7 @@ impl<'a> XScan<'a> {
         j: &mut usize,
         hits: &mut [Option<Hit>],
         st: &mut XStats,
-    ) -> Option<Sample> {
+    ) -> Option<(Sample, Option<Loc>)> {
         let step = p.step;
         let q = a.phi / step;
         let target_idx = if dir > 0.0 {
@@ -565,10 +615,25 @@ impl<'a> XScan<'a> {
         let target = target_idx * step;
         let w = dir * (target - a.phi);
         let x_last = self.xpix(self.width - 1);
+        let cands = self.candidates(a, dir, w, sigma);
+        // 0. The link of the previous scan line (§4.2), re-tested every
+        // few scan lines.
+        if a.link != 0 && a.age < LINK_AGE {
+            if let Some(&(i, mut c)) = cands.iter().find(|(_, c)| c.id == a.link) {
+                if c.s.x > a.s.x {
+                    st.links_kept += 1;
+                    self.fill(a, &c, a.herm, j, hits);
+                    let loc = self.mark_used(Some(i), &mut c, st);
+                    self.set_link(a_loc, &c, a.age + 1, a.herm);
+                    st.samples += 1;
+                    return Some((c, loc));
+                }
+            }
+        }
         // 1. Carried samples.
         let mut first: Option<(Option<usize>, Sample)> = None;
         let mut known: Option<Test> = None;
-        for (tries, (i, c)) in self.candidates(a, dir, w, sigma).into_iter().enumerate() {
+        for (tries, (i, c)) in cands.into_iter().enumerate() {
             if tries >= 3 {
                 break;
             }
@@ -594,25 +659,15 @@ impl<'a> XScan<'a> {
                     return None;
                 }
                 st.sample_solves += 1;
-                if let Some(pt) = self.try_newton(&a.s, sigma, ys, xb, st) {
+                if let Some(pt) = self.try_newton_tol(&a.s, sigma, ys, xb, 1e-3, st) {
                     let pphi = self.phi(&pt);
                     let passed = dir * wrap(pphi - a.phi) > w;
-                    let mut b = Sample {
-                        kind: SKind::Pixel,
-                        s: pt,
-                        prev: None,
-                        phi: pphi,
-                    };
+                    let mut b = Sample::new(SKind::Pixel, pt, pphi);
                     if passed {
                         let k = (target / self.fine_step()).round() as i64;
                         if let Some((s, _)) = self.track(SKind::Theta(k), pt.u, pt.v, ys) {
                             if s.x > a.s.x && s.x <= pt.x && s.jac() * sigma > 0.0 {
-                                b = Sample {
-                                    kind: SKind::Theta(k),
-                                    s,
-                                    prev: None,
-                                    phi: self.phi(&s),
-                                };
+                                b = Sample::new(SKind::Theta(k), s, self.phi(&s));
                                 st.theta_created += 1;
                             }
                         }
@@ -638,25 +693,23 @@ impl<'a> XScan<'a> {
                 }
             };
             match t {
-                Test::Accept(hermite) => {
+                Test::Accept(hermite, slack) => {
                     if b.s.x <= a.s.x {
                         return None;
                     }
                     self.fill(a, &b, hermite, j, hits);
-                    self.mark_used(idx, &b, st);
+                    let loc = self.mark_used(idx, &mut b, st);
+                    let age = if slack { 0 } else { LINK_AGE };
+                    self.set_link(a_loc, &b, age, hermite);
                     st.samples += 1;
-                    return Some(b);
+                    return Some((b, loc));
                 }
                 Test::WrongArc => return None,
                 Test::Turn(m) => {
                     // §4.3: the turn point becomes a sample.
                     let tp = self.track(SKind::Turn, m.u, m.v, ys).and_then(|(s, _)| {
-                        (s.x > a.s.x && s.x < b.s.x && s.jac() * sigma > 0.0).then(|| Sample {
-                            kind: SKind::Turn,
-                            s,
-                            prev: None,
-                            phi: self.phi(&s),
-                        })
+                        (s.x > a.s.x && s.x < b.s.x && s.jac() * sigma > 0.0)
+                            .then(|| Sample::new(SKind::Turn, s, self.phi(&s)))
                     });
                     match tp {
                         Some(t) => {
@@ -664,12 +717,7 @@ impl<'a> XScan<'a> {
                             b = t;
                         }
                         None => {
-                            b = Sample {
-                                kind: SKind::Pixel,
-                                phi: self.phi(&m),
-                                s: m,
-                                prev: None,
-                            };
+                            b = Sample::new(SKind::Pixel, m, self.phi(&m));
                             idx = None;
                         }
                     }
@@ -677,9 +725,9 @@ impl<'a> XScan<'a> {
                 Test::Coarse(m) => {
                     if npix <= 3 {
                         if self.exact_fill(a, &b, sigma, ys, j, hits, st) {
-                            self.mark_used(idx, &b, st);
+                            let loc = self.mark_used(idx, &mut b, st);
                             st.samples += 1;
-                            return Some(b);
+                            return Some((b, loc));
                         }
                         return None;
                     }
@@ -690,12 +738,7 @@ impl<'a> XScan<'a> {
                             b = r;
                         }
                         None => {
-                            b = Sample {
-                                kind: SKind::Pixel,
-                                phi: self.phi(&m),
-                                s: m,
-                                prev: None,
-                            };
+                            b = Sample::new(SKind::Pixel, m, self.phi(&m));
                         }
                     }
                     idx = None;
@@ -740,16 +783,12 @@ impl<'a> XScan<'a> {
         };
         st.pixel_solves += 1;
         self.put(hits, j0, &first, &normal(&first));
-        let mut a = Sample {
-            kind: SKind::Pixel,
-            s: first,
-            prev: None,
-            phi: self.phi(&first),
-        };
+        let mut a = Sample::new(SKind::Pixel, first, self.phi(&first));
         let mut j = j0 + 1;
         let mut dir = 1.0;
         let mut n = 0usize;
         let mut stall = 0u32;
+        let mut a_loc: Option<Loc> = None;
         while j < self.width {
             n += 1;
             if n % 16 == 0 && self.cancel.is_some_and(|c| c.is_cancelled()) {
@@ -771,11 +810,11 @@ impl<'a> XScan<'a> {
             // fold or a turn) hand over to the exact step after a while.
             let j_before = j;
             let b = if stall < 32 {
-                self.span(&a, dir, sigma, ys, p, &mut j, hits, st)
+                self.span(&a, a_loc, dir, sigma, ys, p, &mut j, hits, st)
             } else {
                 None
             };
-            if let Some(b) = b {
+            if let Some((b, loc)) = b {
                 match b.kind {
                     SKind::Sil => return End::Fold(Box::new(b.s)),
                     SKind::Edge => return End::Boundary,
@@ -783,6 +822,7 @@ impl<'a> XScan<'a> {
                 }
                 stall = if j > j_before { 0 } else { stall + 1 };
                 a = b;
+                a_loc = loc;
                 continue;
             }
             stall = 0;
@@ -798,12 +838,8 @@ impl<'a> XScan<'a> {
             st.pixel_solves += 1;
             self.put(hits, j, &q, &normal(&q));
             j += 1;
-            a = Sample {
-                kind: SKind::Pixel,
-                s: q,
-                prev: None,
-                phi: self.phi(&q),
-            };
+            a = Sample::new(SKind::Pixel, q, self.phi(&q));
+            a_loc = None;
         }
         End::Done
     }
