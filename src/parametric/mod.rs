@@ -115,19 +115,22 @@ pub struct Pixel {
 
 impl Pixel {
     fn from_hit(h: &Hit) -> Option<Pixel> {
-        let n = h.p.pu.cross(h.p.pv);
-        let l = n.length();
-        let n = if l > 0.0 && l.is_finite() {
-            n / l
+        let n = if h.n != glam::DVec3::ZERO {
+            h.n
         } else {
-            glam::DVec3::NAN
+            let l = h.pn.length();
+            if l > 0.0 && l.is_finite() {
+                h.pn / l
+            } else {
+                glam::DVec3::NAN
+            }
         };
         Some(Pixel {
             z: h.z,
             u: h.u,
             v: h.v,
             n,
-            p: h.p.p,
+            p: h.p,
         })
     }
 }
@@ -171,7 +174,9 @@ pub fn render(
         .step_by(opts.band)
         .map(|r0| (r0, (r0 + opts.band).min(height)))
         .collect();
-    let results: Vec<Result<(Vec<Option<Pixel>>, BandStats)>> = bands
+    // Each band returns its covered pixels only (image index, pixel).
+    type BandOut = (Vec<(usize, Pixel)>, BandStats);
+    let results: Vec<Result<BandOut>> = bands
         .par_iter()
         .map(|&(r0, r1)| {
             let yscan = YScan::new(&sc, x_left, opts.extrapolate);
@@ -192,7 +197,7 @@ pub fn render(
             let mut st = BandStats::default();
             let mut trackers: Vec<Tracker> = Vec::new();
             let mut seeds = Vec::new();
-            let mut pix = vec![None; (r1 - r0) * width];
+            let mut pix: Vec<(usize, Pixel)> = Vec::new();
             let mut hits: Vec<Option<Hit>> = vec![None; width];
             for i in r0..r1 {
                 cancel.check()?;
@@ -207,7 +212,6 @@ pub fn render(
                     &mut st.y,
                 );
                 hits.iter_mut().for_each(|h| *h = None);
-                let row = &mut pix[(i - r0) * width..(i - r0 + 1) * width];
                 if sampled {
                     xscan.sampled_begin(&trackers, ys, opts.extrapolate, &mut st.x);
                 }
@@ -215,8 +219,10 @@ pub fn render(
                 if sampled {
                     xscan.sampled_end(&mut st.x);
                 }
-                for (o, h) in row.iter_mut().zip(&hits) {
-                    *o = h.as_ref().and_then(Pixel::from_hit);
+                for (j, h) in hits.iter().enumerate() {
+                    if let Some(px) = h.as_ref().and_then(Pixel::from_hit) {
+                        pix.push((i * width + j, px));
+                    }
                 }
             }
             Ok((pix, st))
@@ -228,11 +234,9 @@ pub fn render(
         let (pix, st) = r?;
         total.y.add(&st.y);
         total.x.add(&st.x);
-        for (k, px) in pix.iter().enumerate() {
-            let idx = r0 * width + k;
-            debug_assert!(idx < r1 * width);
-            let Some(px) = px else { continue };
-            write_pixel(&mut b, idx, px, &sc, shading);
+        for (idx, px) in &pix {
+            debug_assert!((r0 * width..r1 * width).contains(idx));
+            write_pixel(&mut b, *idx, px, &sc, shading);
         }
     }
     b.samples = sc.evals();
@@ -276,6 +280,8 @@ pub fn render(
         b.stat("turn_points", s.turns as f64);
         b.stat("x_span_tests", s.span_tests as f64);
         b.stat("x_links_kept", s.links_kept as f64);
+        b.stat("x_wrong_arc", s.wrong_arc as f64);
+        b.stat("x_sideways", s.sideways as f64);
         // Normal-angle trackers (§4): Newton corrections per update from
         // the previous position (plain) and from the §3.5 extrapolation.
         b.stat(

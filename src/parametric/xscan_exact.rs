@@ -19,7 +19,7 @@
 
 use super::screen::{Screen, ScreenSample};
 use super::trackers::{Kind, Tracker};
-use crate::surface::ParamSample;
+use glam::DVec3;
 
 /// The visible point of one pixel so far.
 #[derive(Debug, Clone, Copy)]
@@ -28,7 +28,12 @@ pub struct Hit {
     pub u: f64,
     pub v: f64,
     pub jac: f64,
-    pub p: ParamSample,
+    /// World point.
+    pub p: DVec3,
+    /// Unit normal, or zero when it is P_u × P_v normalised (see `pn`).
+    pub n: DVec3,
+    /// P_u × P_v (exact scan).
+    pub pn: DVec3,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -72,6 +77,10 @@ pub struct XStats {
     /// scan line's links without a test.
     pub span_tests: u64,
     pub links_kept: u64,
+    /// Carried samples found on another arc, and samples made by the
+    /// sideways iteration.
+    pub wrong_arc: u64,
+    pub sideways: u64,
 }
 
 impl XStats {
@@ -97,6 +106,8 @@ impl XStats {
         self.theta_created += o.theta_created;
         self.span_tests += o.span_tests;
         self.links_kept += o.links_kept;
+        self.wrong_arc += o.wrong_arc;
+        self.sideways += o.sideways;
     }
 }
 
@@ -491,7 +502,9 @@ impl<'a> XScan<'a> {
                     u: q.u,
                     v: q.v,
                     jac: q.jac(),
-                    p: q.p,
+                    p: q.p.p,
+                    n: DVec3::ZERO,
+                    pn: q.p.pu.cross(q.p.pv),
                 },
             );
             cur = q;

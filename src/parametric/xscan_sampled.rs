@@ -38,7 +38,6 @@
 
 use super::screen::ScreenSample;
 use super::xscan_exact::{End, Hit, XScan, XStats};
-use crate::surface::ParamSample;
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -499,27 +498,25 @@ impl<'a> XScan<'a> {
                 }
                 None => lerp(a.s.z, b.s.z),
             };
-            let q = ScreenSample {
-                u: lerp(a.s.u, b.s.u),
-                v: lerp(a.s.v, b.s.v),
+            self.put(
+                hits,
+                *j,
                 z,
-                p: ParamSample {
-                    p: a.s.p.p.lerp(b.s.p.p, t),
-                    ..Default::default()
-                },
-                ..a.s
-            };
-            self.put(hits, *j, &q, &n);
+                lerp(a.s.u, b.s.u),
+                lerp(a.s.v, b.s.v),
+                a.s.p.p.lerp(b.s.p.p, t),
+                n,
+            );
             *j += 1;
         }
     }
 
     /// Candidates for the sample after a: carried samples ahead in x whose
     /// ϑ lies in the window (a.ϑ, a.ϑ + dir·w], farthest angle first.
-    fn candidates(&self, a: &Sample, dir: f64, w: f64, sigma: f64) -> Vec<(usize, Sample)> {
+    fn candidates(&self, a: &Sample, dir: f64, w: f64, sigma: f64) -> Vec<usize> {
         let pool = self.pool.borrow();
         let start = pool.cur.partition_point(|c| c.s.x <= a.s.x);
-        let mut out: Vec<(usize, Sample, f64)> = Vec::new();
+        let mut out: Vec<(usize, f64, f64)> = Vec::with_capacity(6);
         for (i, c) in pool.cur.iter().enumerate().skip(start).take(96) {
             let dc = dir * wrap(c.phi - a.phi);
             let ok = match c.kind {
@@ -530,15 +527,15 @@ impl<'a> XScan<'a> {
                 SKind::Pixel => false,
             };
             if ok {
-                out.push((i, *c, dc));
+                out.push((i, dc, c.s.x));
                 if out.len() >= 6 {
                     break;
                 }
             }
         }
         // Farthest angle first (the coarsest span that passes is used).
-        out.sort_by(|a, b| b.2.total_cmp(&a.2).then(a.1.s.x.total_cmp(&b.1.s.x)));
-        out.into_iter().map(|(i, c, _)| (i, c)).collect()
+        out.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.2.total_cmp(&b.2)));
+        out.into_iter().map(|(i, _, _)| i).collect()
     }
 
     /// Sample at the fine table angle nearest the middle of a and b, made
@@ -584,7 +581,7 @@ impl<'a> XScan<'a> {
             jj += 1;
         }
         for (jj, q) in sols {
-            self.put(hits, jj, &q, &normal(&q));
+            self.put_sample(hits, jj, &q);
         }
         *j = jj;
         true
@@ -619,7 +616,14 @@ impl<'a> XScan<'a> {
         // 0. The link of the previous scan line (§4.2), re-tested every
         // few scan lines.
         if a.link != 0 && a.age < LINK_AGE {
-            if let Some(&(i, mut c)) = cands.iter().find(|(_, c)| c.id == a.link) {
+            let found = {
+                let pool = self.pool.borrow();
+                cands
+                    .iter()
+                    .find(|&&i| pool.cur[i].id == a.link)
+                    .map(|&i| (i, pool.cur[i]))
+            };
+            if let Some((i, mut c)) = found {
                 if c.s.x > a.s.x {
                     st.links_kept += 1;
                     self.fill(a, &c, a.herm, j, hits);
@@ -633,13 +637,25 @@ impl<'a> XScan<'a> {
         // 1. Carried samples.
         let mut first: Option<(Option<usize>, Sample)> = None;
         let mut known: Option<Test> = None;
-        for (tries, (i, c)) in cands.into_iter().enumerate() {
+        let mut cands = cands;
+        if a.link != 0 {
+            let pool = self.pool.borrow();
+            if let Some(k) = cands.iter().position(|&i| pool.cur[i].id == a.link) {
+                let i = cands.remove(k);
+                cands.insert(0, i);
+            }
+        }
+        for (tries, i) in cands.into_iter().enumerate() {
+            let c = self.pool.borrow().cur[i];
             if tries >= 3 {
                 break;
             }
             st.span_tests += 1;
             match self.test_span(a, &c, sigma, ys, dir, p, st) {
-                Test::WrongArc => continue,
+                Test::WrongArc => {
+                    st.wrong_arc += 1;
+                    continue;
+                }
                 t => {
                     first = Some((Some(i), c));
                     known = Some(t);
@@ -669,6 +685,7 @@ impl<'a> XScan<'a> {
                             if s.x > a.s.x && s.x <= pt.x && s.jac() * sigma > 0.0 {
                                 b = Sample::new(SKind::Theta(k), s, self.phi(&s));
                                 st.theta_created += 1;
+                                st.sideways += 1;
                             }
                         }
                     }
@@ -782,7 +799,7 @@ impl<'a> XScan<'a> {
             },
         };
         st.pixel_solves += 1;
-        self.put(hits, j0, &first, &normal(&first));
+        self.put_sample(hits, j0, &first);
         let mut a = Sample::new(SKind::Pixel, first, self.phi(&first));
         let mut j = j0 + 1;
         let mut dir = 1.0;
@@ -836,7 +853,7 @@ impl<'a> XScan<'a> {
                 },
             };
             st.pixel_solves += 1;
-            self.put(hits, j, &q, &normal(&q));
+            self.put_sample(hits, j, &q);
             j += 1;
             a = Sample::new(SKind::Pixel, q, self.phi(&q));
             a_loc = None;
@@ -844,32 +861,31 @@ impl<'a> XScan<'a> {
         End::Done
     }
 
-    /// Record a pixel with an explicit unit normal.
-    fn put(&self, hits: &mut [Option<Hit>], j: usize, q: &ScreenSample, n: &DVec3) {
-        // Encode the normal as P_u × P_v of an orthonormal pair.
-        let (e1, e2) = n.any_orthonormal_pair();
-        let (e1, e2) = if e1.cross(e2).dot(*n) >= 0.0 {
-            (e1, e2)
+    /// Record a pixel with an explicit unit normal (zero: none, as at a
+    /// pole).
+    fn put(&self, hits: &mut [Option<Hit>], j: usize, z: f64, u: f64, v: f64, p: DVec3, n: DVec3) {
+        let (n, pn) = if n == DVec3::ZERO {
+            (DVec3::ZERO, DVec3::ZERO)
         } else {
-            (e2, e1)
-        };
-        let p = ParamSample {
-            p: q.p.p,
-            pu: e1,
-            pv: e2,
-            ..Default::default()
+            (n, n)
         };
         self.record(
             hits,
             j,
             Hit {
-                z: q.z,
-                u: q.u,
-                v: q.v,
+                z,
+                u,
+                v,
                 jac: 0.0,
                 p,
+                n,
+                pn,
             },
         );
+    }
+
+    fn put_sample(&self, hits: &mut [Option<Hit>], j: usize, q: &ScreenSample) {
+        self.put(hits, j, q.z, q.u, q.v, q.p.p, normal(q));
     }
 }
 
