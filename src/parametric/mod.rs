@@ -470,8 +470,24 @@ mod tests {
 
     #[test]
     fn identical_for_any_thread_count() {
+        for x_scan in [
+            XScanMode::Newton,
+            XScanMode::Sampled {
+                per_turn: 16,
+                max_error: 0.5,
+            },
+        ] {
+            identical_for_any_thread_count_with(x_scan);
+        }
+    }
+
+    fn identical_for_any_thread_count_with(x_scan: XScanMode) {
         let s = shapes::torus(1.0, 0.4);
         let v = view(35.0, 30.0, true);
+        let opts = Options {
+            x_scan,
+            ..Options::default()
+        };
         let run = |n: usize| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
@@ -485,7 +501,7 @@ mod tests {
                     70,
                     &all(),
                     &Shading::default(),
-                    &Options::default(),
+                    &opts,
                     &Cancel::new(),
                 )
                 .unwrap()
