@@ -548,7 +548,8 @@ impl<'a> XScan<'a> {
         // Not strictly between a and b: no finer table angle left.
         let da = wrap(ang - a.phi);
         let db = wrap(b.phi - ang);
-        if !(da * db > 0.0) || da.abs() < 0.25 * fs || db.abs() < 0.25 * fs {
+        if da * db <= 0.0 || !(da * db).is_finite() || da.abs() < 0.25 * fs || db.abs() < 0.25 * fs
+        {
             return None;
         }
         let (s, _) = self.track(SKind::Theta(k), m.u, m.v, ys)?;
@@ -863,6 +864,7 @@ impl<'a> XScan<'a> {
 
     /// Record a pixel with an explicit unit normal (zero: none, as at a
     /// pole).
+    #[allow(clippy::too_many_arguments)]
     fn put(&self, hits: &mut [Option<Hit>], j: usize, z: f64, u: f64, v: f64, p: DVec3, n: DVec3) {
         let (n, pn) = if n == DVec3::ZERO {
             (DVec3::ZERO, DVec3::ZERO)
