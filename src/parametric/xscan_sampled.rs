@@ -162,6 +162,13 @@ fn jk(s: &ScreenSample, d: DVec3) -> Jk {
     }
 }
 
+/// Outcome of one Newton step of a tracker.
+enum Step {
+    Done,
+    Fail,
+    Next(f64, f64),
+}
+
 /// Outcome of the middle-pixel test of a span.
 enum Test {
     /// Interpolate (Hermite depth or not); whether the errors were within
@@ -206,6 +213,65 @@ impl<'a> XScan<'a> {
         -(t / r2) / q.j
     }
 
+    /// One Newton step on (y − ys, G) for a sample of `kind` evaluated at
+    /// s (and, for a turn point, at s shifted by h in u and in v).
+    fn track_step(
+        &self,
+        kind: SKind,
+        s: &ScreenSample,
+        shifted: Option<(&ScreenSample, &ScreenSample)>,
+        ys: f64,
+    ) -> Step {
+        let d = self.sc.dom;
+        let f = s.y - ys;
+        let (g, gu, gv) = match kind {
+            SKind::Theta(k) => {
+                let (sn, cs) = (k as f64 * self.fine_step()).sin_cos();
+                let q = jk(s, self.d());
+                let zs = self.zs;
+                (
+                    -q.j * sn + q.k / zs * cs,
+                    -q.ju * sn + q.ku / zs * cs,
+                    -q.jv * sn + q.kv / zs * cs,
+                )
+            }
+            SKind::Turn => {
+                let Some((su, sv)) = shifted else {
+                    return Step::Fail;
+                };
+                let h = self.turn_h();
+                let t = self.turn_fn(s);
+                (t, (self.turn_fn(su) - t) / h, (self.turn_fn(sv) - t) / h)
+            }
+            _ => return Step::Fail,
+        };
+        let det = s.yu * gv - s.yv * gu;
+        let du = -(f * gv - s.yv * g) / det;
+        let dv = -(s.yu * g - f * gu) / det;
+        if !(du.is_finite() && dv.is_finite()) {
+            return Step::Fail;
+        }
+        let step_px = (s.xu * du + s.xv * dv)
+            .abs()
+            .max((s.yu * du + s.yv * dv).abs());
+        if f.abs() <= 1e-6 && step_px <= 1e-4 {
+            return Step::Done;
+        }
+        if du.abs().max(dv.abs()) > 0.1 * self.ext {
+            return Step::Fail;
+        }
+        let (u, v) = (s.u + du, s.v + dv);
+        if !d.contains(u, v) {
+            return Step::Fail;
+        }
+        Step::Next(u, v)
+    }
+
+    /// Difference step of ∇T.
+    fn turn_h(&self) -> f64 {
+        1e-7 * self.ext
+    }
+
     /// Newton on (y − ys, G) for a sample of `kind` from (u, v): the
     /// solution and the number of corrections.
     pub(crate) fn track(
@@ -215,60 +281,88 @@ impl<'a> XScan<'a> {
         v: f64,
         ys: f64,
     ) -> Option<(ScreenSample, u32)> {
-        let d = self.sc.dom;
-        let (mut u, mut v) = (u, v);
-        if !d.contains(u, v) {
+        if !self.sc.dom.contains(u, v) {
             return None;
         }
-        let ang = match kind {
-            SKind::Theta(k) => k as f64 * self.fine_step(),
-            _ => 0.0,
-        };
-        let (sn, cs) = ang.sin_cos();
-        let h = 1e-7 * self.ext;
+        let (mut u, mut v) = (u, v);
+        let h = self.turn_h();
         for iters in 0..16u32 {
             let s = self.sc.eval(u, v)?;
-            let f = s.y - ys;
-            let (g, gu, gv) = match kind {
-                SKind::Theta(_) => {
-                    let q = jk(&s, self.d());
-                    let zs = self.zs;
-                    (
-                        -q.j * sn + q.k / zs * cs,
-                        -q.ju * sn + q.ku / zs * cs,
-                        -q.jv * sn + q.kv / zs * cs,
-                    )
-                }
-                SKind::Turn => {
-                    let t = self.turn_fn(&s);
-                    let su = self.sc.eval(u + h, v)?;
-                    let sv = self.sc.eval(u, v + h)?;
-                    (t, (self.turn_fn(&su) - t) / h, (self.turn_fn(&sv) - t) / h)
-                }
-                _ => return None,
+            let sh = if kind == SKind::Turn {
+                Some((self.sc.eval(u + h, v)?, self.sc.eval(u, v + h)?))
+            } else {
+                None
             };
-            let det = s.yu * gv - s.yv * gu;
-            let du = -(f * gv - s.yv * g) / det;
-            let dv = -(s.yu * g - f * gu) / det;
-            if !(du.is_finite() && dv.is_finite()) {
-                return None;
-            }
-            let step_px = (s.xu * du + s.xv * dv)
-                .abs()
-                .max((s.yu * du + s.yv * dv).abs());
-            if f.abs() <= 1e-6 && step_px <= 1e-4 {
-                return Some((s, iters));
-            }
-            if du.abs().max(dv.abs()) > 0.1 * self.ext {
-                return None;
-            }
-            u += du;
-            v += dv;
-            if !d.contains(u, v) {
-                return None;
+            match self.track_step(kind, &s, sh.as_ref().map(|(a, b)| (a, b)), ys) {
+                Step::Done => return Some((s, iters)),
+                Step::Fail => return None,
+                Step::Next(nu, nv) => {
+                    u = nu;
+                    v = nv;
+                }
             }
         }
         None
+    }
+
+    /// [`track`](Self::track) for many samples at once: every Newton round
+    /// evaluates all unfinished samples in one batch (one call of a
+    /// Python-callable surface per round).
+    pub(crate) fn track_many(
+        &self,
+        items: &[(SKind, f64, f64)],
+        ys: f64,
+    ) -> Vec<Option<(ScreenSample, u32)>> {
+        let d = self.sc.dom;
+        let h = self.turn_h();
+        let mut out: Vec<Option<(ScreenSample, u32)>> = vec![None; items.len()];
+        let mut active: Vec<(usize, f64, f64)> = items
+            .iter()
+            .enumerate()
+            .filter(|(_, &(_, u, v))| d.contains(u, v))
+            .map(|(i, &(_, u, v))| (i, u, v))
+            .collect();
+        let (mut bu, mut bv) = (Vec::new(), Vec::new());
+        for iters in 0..16u32 {
+            if active.is_empty() {
+                break;
+            }
+            bu.clear();
+            bv.clear();
+            for &(i, u, v) in &active {
+                bu.push(u);
+                bv.push(v);
+                if items[i].0 == SKind::Turn {
+                    bu.extend([u + h, u]);
+                    bv.extend([v, v + h]);
+                }
+            }
+            let ss = self.sc.eval_batch(&bu, &bv);
+            let mut k = 0;
+            let mut next = Vec::with_capacity(active.len());
+            for &(i, _, _) in &active {
+                let kind = items[i].0;
+                let s = ss[k];
+                let sh = if kind == SKind::Turn {
+                    k += 3;
+                    ss[k - 2].zip(ss[k - 1])
+                } else {
+                    k += 1;
+                    None
+                };
+                let Some(s) = s else { continue };
+                if kind == SKind::Turn && sh.is_none() {
+                    continue;
+                }
+                match self.track_step(kind, &s, sh.as_ref().map(|(a, b)| (a, b)), ys) {
+                    Step::Done => out[i] = Some((s, iters)),
+                    Step::Fail => {}
+                    Step::Next(u, v) => next.push((i, u, v)),
+                }
+            }
+            active = next;
+        }
+        out
     }
 
     pub(crate) fn fine_step(&self) -> f64 {
@@ -288,20 +382,26 @@ impl<'a> XScan<'a> {
         let mut pool = self.pool.borrow_mut();
         let old = std::mem::take(&mut pool.keep);
         let mut cur: Vec<Sample> = Vec::with_capacity(old.len() + ytrackers.len());
-        for t in old {
-            let (mut gu, mut gv) = (t.s.u, t.s.v);
-            let mut ex = false;
-            if extrapolate {
-                if let Some((pu, pv)) = t.prev {
-                    gu = 2.0 * t.s.u - pu;
-                    gv = 2.0 * t.s.v - pv;
-                    ex = true;
-                }
-            }
-            let mut r = self.track(t.kind, gu, gv, ys);
-            if r.is_none() && ex {
-                r = self.track(t.kind, t.s.u, t.s.v, ys);
-            }
+        // §3.5: guesses extrapolated from the two previous scan lines.
+        let guess = |t: &Sample| match (extrapolate, t.prev) {
+            (true, Some((pu, pv))) => (2.0 * t.s.u - pu, 2.0 * t.s.v - pv, true),
+            _ => (t.s.u, t.s.v, false),
+        };
+        let items: Vec<(SKind, f64, f64)> = old
+            .iter()
+            .map(|t| {
+                let (u, v, _) = guess(t);
+                (t.kind, u, v)
+            })
+            .collect();
+        let first = self.track_many(&items, ys);
+        for (t, r) in old.iter().zip(first) {
+            let (_, _, ex) = guess(t);
+            let r = match r {
+                Some(r) => Some(r),
+                None if ex => self.track(t.kind, t.s.u, t.s.v, ys),
+                None => None,
+            };
             match r {
                 Some((s, it)) => {
                     if ex {
@@ -315,7 +415,7 @@ impl<'a> XScan<'a> {
                         s,
                         prev: Some((t.s.u, t.s.v)),
                         phi: self.phi(&s),
-                        ..t
+                        ..*t
                     });
                 }
                 None => st.theta_lost += 1,
