@@ -207,6 +207,7 @@ pub fn render(
                     ys,
                     i == r0,
                     &maxima.maxima,
+                    &saddles,
                     &net,
                     &mut seeds,
                     &mut st.y,
@@ -255,6 +256,7 @@ pub fn render(
     b.stat("trackers_exited", y.exited as f64);
     b.stat("created_at_maxima", y.created_maxima as f64);
     b.stat("created_at_folds", y.created_fold as f64);
+    b.stat("created_at_saddles", y.created_saddles as f64);
     b.stat("net_added", y.net_added as f64);
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);

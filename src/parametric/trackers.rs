@@ -18,8 +18,13 @@
 //! §3.2.2.3), and deleted when Newton fails to converge (minima §3.2.3) or a
 //! silhouette tracker leaves the patch.
 //!
-//! Safety net: tracking alone misses level-curve pieces born at saddles and
-//! curtain folds (§3.4) or lost by a failed update. Every scan line the
+//! Silhouette trackers are also started at saddles of y where y has a
+//! maximum along the silhouette (§3.2.2.4).
+//!
+//! Safety net: tracking alone still misses some level-curve pieces — born at
+//! curtain folds (§3.4), at stationary points on a patch edge, or lost by a
+//! failed update near a minimum (the statistics `net_added` count them: 0 to
+//! 12 per 96×72 render over the test surfaces, so the net stays). Every scan line the
 //! curves are therefore also intersected with a coarse precomputed picture
 //! of them — y sampled along each boundary edge, and the silhouette and the
 //! left-border curve traced by marching squares over a grid — and every
@@ -64,6 +69,8 @@ pub struct YStats {
     pub exited: u64,
     pub created_maxima: u64,
     pub created_fold: u64,
+    /// Silhouette trackers started at saddles of y (§3.2.2.4).
+    pub created_saddles: u64,
     /// Trackers the safety net had to add on a scan line after the first of
     /// a band.
     pub net_added: u64,
@@ -80,6 +87,7 @@ impl YStats {
         self.exited += o.exited;
         self.created_maxima += o.created_maxima;
         self.created_fold += o.created_fold;
+        self.created_saddles += o.created_saddles;
         self.net_added += o.net_added;
         self.band_seeds += o.band_seeds;
     }
@@ -359,6 +367,23 @@ impl Net {
     }
 }
 
+/// Starting guesses of the two silhouette trackers below a stationary
+/// point q of y where y has a maximum along the silhouette (§3.2.2.2):
+/// the level curve ½ΔᵀH_yΔ = ys − y_q meets the silhouette line ∇J·Δ = 0.
+fn sil_starts(q: &ScreenSample, ys: f64, cands: &mut Vec<(Kind, f64, f64)>) {
+    let (ju, jv) = q.jac_grad();
+    let l = ju.hypot(jv);
+    if l > 0.0 {
+        let (wu, wv) = (-jv / l, ju / l);
+        let c = q.yuu * wu * wu + 2.0 * q.yuv * wu * wv + q.yvv * wv * wv;
+        if c < 0.0 {
+            let a = (2.0 * (ys - q.y) / c).sqrt();
+            cands.push((Kind::Sil, q.u + a * wu, q.v + a * wv));
+            cands.push((Kind::Sil, q.u - a * wu, q.v - a * wv));
+        }
+    }
+}
+
 /// Context of the Y scan shared by a band.
 pub struct YScan<'a> {
     pub sc: &'a Screen<'a>,
@@ -473,6 +498,7 @@ impl<'a> YScan<'a> {
         ys: f64,
         first: bool,
         maxima: &[Maximum],
+        saddles: &[ScreenSample],
         net: &Net,
         seeds: &mut Vec<(Kind, f64, f64)>,
         st: &mut YStats,
@@ -545,20 +571,7 @@ impl<'a> YScan<'a> {
             }
             let mut cands: Vec<(Kind, f64, f64)> = Vec::new();
             match m.kind {
-                MaxKind::Interior => {
-                    // Level curve ≈ ellipse ½ΔᵀHΔ = ys − y_m; silhouette ≈ line ∇J·Δ = 0.
-                    let (ju, jv) = m.s.jac_grad();
-                    let l = ju.hypot(jv);
-                    if l > 0.0 {
-                        let (wu, wv) = (-jv / l, ju / l);
-                        let q = m.s.yuu * wu * wu + 2.0 * m.s.yuv * wu * wv + m.s.yvv * wv * wv;
-                        if q < 0.0 {
-                            let a = (2.0 * (ys - m.y) / q).sqrt();
-                            cands.push((Kind::Sil, m.u + a * wu, m.v + a * wv));
-                            cands.push((Kind::Sil, m.u - a * wu, m.v - a * wv));
-                        }
-                    }
-                }
+                MaxKind::Interior => sil_starts(&m.s, ys, &mut cands),
                 MaxKind::Edge(e) => {
                     let ytt = if e < 2 { m.s.yvv } else { m.s.yuu };
                     if ytt < 0.0 {
@@ -587,6 +600,32 @@ impl<'a> YScan<'a> {
                 if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
                     if !out.iter().any(|o| same(o, kind, &s)) {
                         st.created_maxima += 1;
+                        out.push(Tracker {
+                            kind,
+                            s,
+                            prev: None,
+                        });
+                    }
+                }
+            }
+        }
+        // §3.2.2.4 saddles: every stationary point of y lies on the
+        // silhouette (J = 0 there), and along the silhouette y has an
+        // extremum at it. A maximum along the silhouette (its tangent w
+        // with wᵀ H_y w < 0) starts two silhouette trackers below it, as at
+        // a strict maximum; at a minimum the two arriving trackers meet and
+        // one is dropped (above, or Newton fails: §3.2.3).
+        for q in saddles {
+            let dy = q.y - ys;
+            if !(0.0..8.0).contains(&dy) {
+                continue;
+            }
+            let mut cands: Vec<(Kind, f64, f64)> = Vec::new();
+            sil_starts(q, ys, &mut cands);
+            for (kind, u, v) in cands {
+                if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
+                    if !out.iter().any(|o| same(o, kind, &s)) {
+                        st.created_saddles += 1;
                         out.push(Tracker {
                             kind,
                             s,

@@ -62,7 +62,8 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// shading options. `fcol.render` calls it for `fcol.Parametric` surfaces.
 ///
 /// `image.stats` holds the counters of the run: `maxima`, `saddles`,
-/// `parabolic_maxima` (§3.4), `silhouette_y_extrema` (curtain folds and
+/// `parabolic_maxima` (§3.4), `created_at_saddles` (§3.2.2.4),
+/// `silhouette_y_extrema` (curtain folds and
 /// stationary points on the silhouette), `newton_per_update` (Newton
 /// corrections per tracker update) and `newton_per_update_tenth_px` (those
 /// larger than 0.1 px, the seed's stopping rule), `trackers_lost`
