@@ -384,6 +384,14 @@ fn sil_starts(q: &ScreenSample, ys: f64, cands: &mut Vec<(Kind, f64, f64)>) {
     }
 }
 
+/// Outcome of one Newton step of a Y-scan tracker (the flag: a correction
+/// of at least a tenth of a pixel).
+enum SolveStep {
+    Done,
+    Fail,
+    Next(f64, f64, bool),
+}
+
 /// Context of the Y scan shared by a band.
 pub struct YScan<'a> {
     pub sc: &'a Screen<'a>,
@@ -415,78 +423,132 @@ impl<'a> YScan<'a> {
     /// the solution and the number of corrections made (and how many were
     /// larger than 0.1 px).
     pub fn solve(&self, kind: Kind, u: f64, v: f64, ys: f64) -> Option<(ScreenSample, u32, u32)> {
-        let d = self.sc.dom;
-        let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
-        if let Kind::Edge(e) = kind {
-            let p = match e {
-                0 => (d.u0, v),
-                1 => (d.u1, v),
-                2 => (u, d.v0),
-                _ => (u, d.v1),
-            };
-            u = p.0;
-            v = p.1;
-        }
+        let (mut u, mut v) = self.start(kind, u, v);
         let mut big = 0u32;
         for iters in 0..30u32 {
             let s = self.sc.eval(u, v)?;
-            let f = s.y - ys;
-            let (du, dv) = match kind {
-                Kind::Edge(e) => {
-                    if e < 2 {
-                        (0.0, -f / s.yv)
-                    } else {
-                        (-f / s.yu, 0.0)
-                    }
+            match self.solve_step(kind, &s, ys, u, v) {
+                SolveStep::Done => return Some((s, iters, big)),
+                SolveStep::Fail => return None,
+                SolveStep::Next(nu, nv, b) => {
+                    u = nu;
+                    v = nv;
+                    big += b as u32;
                 }
-                Kind::Sil | Kind::Left => {
-                    let (g, gu, gv) = if kind == Kind::Sil {
-                        let (ju, jv) = s.jac_grad();
-                        (s.jac(), ju, jv)
-                    } else {
-                        (s.x - self.x_left, s.xu, s.xv)
-                    };
-                    // Blinn §3.2.1: u −= (F G_v − F_v G)/det, v −= (F_u G − F G_u)/det.
-                    let det = s.yu * gv - s.yv * gu;
-                    (-(f * gv - s.yv * g) / det, -(s.yu * g - f * gu) / det)
-                }
-            };
-            if !(du.is_finite() && dv.is_finite()) {
-                return None;
-            }
-            let step_px = self.px(&s, du, dv);
-            let small = du.abs().max(dv.abs()) <= 1e-13 * self.ext;
-            if step_px < 1e-9 || small {
-                // Converged: the remaining correction is negligible.
-                if f.abs() > 1e-6 {
-                    return None;
-                }
-                return Some((s, iters, big));
-            }
-            // Failure to converge (§3.2.3): a wild step.
-            if du.abs().max(dv.abs()) > 0.3 * self.ext {
-                return None;
-            }
-            if step_px >= 0.1 {
-                big += 1;
-            }
-            let (nu, nv) = (u + du, v + dv);
-            // Silhouette and border trackers leave through the patch edges.
-            let slack = 1e-9 * self.ext;
-            if nu < d.u0 - slack || nu > d.u1 + slack || nv < d.v0 - slack || nv > d.v1 + slack {
-                // Allow one clamped step before giving up (solution on the edge).
-                let (cu, cv) = (nu.clamp(d.u0, d.u1), nv.clamp(d.v0, d.v1));
-                if (cu, cv) == (u, v) {
-                    return None;
-                }
-                u = cu;
-                v = cv;
-            } else {
-                u = nu.clamp(d.u0, d.u1);
-                v = nv.clamp(d.v0, d.v1);
             }
         }
         None
+    }
+
+    /// [`solve`](Self::solve) for many trackers at once: every Newton
+    /// round evaluates all unfinished trackers in one batch (one call per
+    /// round for a Python-callable surface).
+    pub fn solve_many(
+        &self,
+        items: &[(Kind, f64, f64)],
+        ys: f64,
+    ) -> Vec<Option<(ScreenSample, u32, u32)>> {
+        let mut out = vec![None; items.len()];
+        let mut active: Vec<(usize, f64, f64, u32)> = items
+            .iter()
+            .enumerate()
+            .map(|(i, &(k, u, v))| {
+                let (u, v) = self.start(k, u, v);
+                (i, u, v, 0)
+            })
+            .collect();
+        let (mut bu, mut bv) = (Vec::new(), Vec::new());
+        for iters in 0..30u32 {
+            if active.is_empty() {
+                break;
+            }
+            bu.clear();
+            bv.clear();
+            bu.extend(active.iter().map(|a| a.1));
+            bv.extend(active.iter().map(|a| a.2));
+            let ss = self.sc.eval_batch(&bu, &bv);
+            let mut next = Vec::with_capacity(active.len());
+            for (&(i, u, v, big), s) in active.iter().zip(ss) {
+                let Some(s) = s else { continue };
+                match self.solve_step(items[i].0, &s, ys, u, v) {
+                    SolveStep::Done => out[i] = Some((s, iters, big)),
+                    SolveStep::Fail => {}
+                    SolveStep::Next(nu, nv, b) => next.push((i, nu, nv, big + b as u32)),
+                }
+            }
+            active = next;
+        }
+        out
+    }
+
+    /// Starting point of [`solve`](Self::solve): inside the patch, on the
+    /// tracked edge.
+    fn start(&self, kind: Kind, u: f64, v: f64) -> (f64, f64) {
+        let d = self.sc.dom;
+        let (u, v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
+        match kind {
+            Kind::Edge(0) => (d.u0, v),
+            Kind::Edge(1) => (d.u1, v),
+            Kind::Edge(2) => (u, d.v0),
+            Kind::Edge(_) => (u, d.v1),
+            _ => (u, v),
+        }
+    }
+
+    /// One Newton step of [`solve`](Self::solve) at (u, v), evaluated as s.
+    fn solve_step(&self, kind: Kind, s: &ScreenSample, ys: f64, u: f64, v: f64) -> SolveStep {
+        let d = self.sc.dom;
+        let f = s.y - ys;
+        let (du, dv) = match kind {
+            Kind::Edge(e) => {
+                if e < 2 {
+                    (0.0, -f / s.yv)
+                } else {
+                    (-f / s.yu, 0.0)
+                }
+            }
+            Kind::Sil | Kind::Left => {
+                let (g, gu, gv) = if kind == Kind::Sil {
+                    let (ju, jv) = s.jac_grad();
+                    (s.jac(), ju, jv)
+                } else {
+                    (s.x - self.x_left, s.xu, s.xv)
+                };
+                // Blinn §3.2.1: u −= (F G_v − F_v G)/det, v −= (F_u G − F G_u)/det.
+                let det = s.yu * gv - s.yv * gu;
+                (-(f * gv - s.yv * g) / det, -(s.yu * g - f * gu) / det)
+            }
+        };
+        if !(du.is_finite() && dv.is_finite()) {
+            return SolveStep::Fail;
+        }
+        let step_px = self.px(s, du, dv);
+        let small = du.abs().max(dv.abs()) <= 1e-13 * self.ext;
+        if step_px < 1e-9 || small {
+            // Converged: the remaining correction is negligible.
+            if f.abs() > 1e-6 {
+                return SolveStep::Fail;
+            }
+            return SolveStep::Done;
+        }
+        // Failure to converge (§3.2.3): a wild step.
+        if du.abs().max(dv.abs()) > 0.3 * self.ext {
+            return SolveStep::Fail;
+        }
+        let big = step_px >= 0.1;
+        let (nu, nv) = (u + du, v + dv);
+        // Silhouette and border trackers leave through the patch edges.
+        let slack = 1e-9 * self.ext;
+        if nu < d.u0 - slack || nu > d.u1 + slack || nv < d.v0 - slack || nv > d.v1 + slack {
+            // Allow one clamped step before giving up (solution on the edge).
+            let (cu, cv) = (nu.clamp(d.u0, d.u1), nv.clamp(d.v0, d.v1));
+            if (cu, cv) == (u, v) {
+                return SolveStep::Fail;
+            }
+            SolveStep::Next(cu, cv, big)
+        } else {
+            SolveStep::Next(nu.clamp(d.u0, d.u1), nv.clamp(d.v0, d.v1), big)
+        }
     }
 
     /// Advance all trackers to scan line `ys` and create new ones; `first`
@@ -510,17 +572,24 @@ impl<'a> YScan<'a> {
         let same = |a: &Tracker, kind: Kind, s: &ScreenSample| {
             a.kind == kind && (a.s.u - s.u).abs() <= tol && (a.s.v - s.v).abs() <= tol
         };
-        // §3.2.1 update with the §3.5 extrapolation.
-        for t in old {
-            let (mut gu, mut gv) = (t.s.u, t.s.v);
-            if self.extrapolate {
-                if let Some((pu, pv)) = t.prev {
-                    gu = 2.0 * t.s.u - pu;
-                    gv = 2.0 * t.s.v - pv;
-                }
-            }
+        // §3.2.1 update with the §3.5 extrapolation, all trackers in one
+        // batch per Newton round.
+        let guess = |t: &Tracker| match (self.extrapolate, t.prev) {
+            (true, Some((pu, pv))) => (2.0 * t.s.u - pu, 2.0 * t.s.v - pv),
+            _ => (t.s.u, t.s.v),
+        };
+        let items: Vec<(Kind, f64, f64)> = old
+            .iter()
+            .map(|t| {
+                let (u, v) = guess(t);
+                (t.kind, u, v)
+            })
+            .collect();
+        let updated = self.solve_many(&items, ys);
+        for (t, r) in old.into_iter().zip(updated) {
+            let (gu, gv) = guess(&t);
             st.updates += 1;
-            let mut r = self.solve(t.kind, gu, gv, ys);
+            let mut r = r;
             if r.is_none() && (gu, gv) != (t.s.u, t.s.v) {
                 r = self.solve(t.kind, t.s.u, t.s.v, ys);
             }
