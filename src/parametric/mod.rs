@@ -115,19 +115,22 @@ pub struct Pixel {
 
 impl Pixel {
     fn from_hit(h: &Hit) -> Option<Pixel> {
-        let n = h.p.pu.cross(h.p.pv);
-        let l = n.length();
-        let n = if l > 0.0 && l.is_finite() {
-            n / l
+        let n = if h.n != glam::DVec3::ZERO {
+            h.n
         } else {
-            glam::DVec3::NAN
+            let l = h.pn.length();
+            if l > 0.0 && l.is_finite() {
+                h.pn / l
+            } else {
+                glam::DVec3::NAN
+            }
         };
         Some(Pixel {
             z: h.z,
             u: h.u,
             v: h.v,
             n,
-            p: h.p.p,
+            p: h.p,
         })
     }
 }
@@ -158,13 +161,22 @@ pub fn render(
     let x_left = -0.5 * width as f64;
     let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
     let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
+    // Depth unit of the sampled scan's cross-section angle: one pixel at
+    // the view distance.
+    let zs = match view.projection {
+        crate::camera::Projection::Perspective { distance, .. } => cam.pixel_size_at(distance),
+        crate::camera::Projection::Orthographic { .. } => cam.pixel_size_at(1.0),
+    };
+    let sampled = matches!(opts.x_scan, XScanMode::Sampled { .. });
     cancel.check()?;
     let ys_of = |i: usize| 0.5 * height as f64 - i as f64 - 0.5;
     let bands: Vec<(usize, usize)> = (0..height)
         .step_by(opts.band)
         .map(|r0| (r0, (r0 + opts.band).min(height)))
         .collect();
-    let results: Vec<Result<(Vec<Option<Pixel>>, BandStats)>> = bands
+    // Each band returns its covered pixels only (image index, pixel).
+    type BandOut = (Vec<(usize, Pixel)>, BandStats);
+    let results: Vec<Result<BandOut>> = bands
         .par_iter()
         .map(|&(r0, r1)| {
             let yscan = YScan::new(&sc, x_left, opts.extrapolate);
@@ -180,11 +192,12 @@ pub fn render(
                     step: std::f64::consts::TAU / per_turn as f64,
                     max_error: max_error.to_radians(),
                 });
+                xscan.zs = zs;
             }
             let mut st = BandStats::default();
             let mut trackers: Vec<Tracker> = Vec::new();
             let mut seeds = Vec::new();
-            let mut pix = vec![None; (r1 - r0) * width];
+            let mut pix: Vec<(usize, Pixel)> = Vec::new();
             let mut hits: Vec<Option<Hit>> = vec![None; width];
             for i in r0..r1 {
                 cancel.check()?;
@@ -194,15 +207,23 @@ pub fn render(
                     ys,
                     i == r0,
                     &maxima.maxima,
+                    &saddles,
                     &net,
                     &mut seeds,
                     &mut st.y,
                 );
                 hits.iter_mut().for_each(|h| *h = None);
-                let row = &mut pix[(i - r0) * width..(i - r0 + 1) * width];
+                if sampled {
+                    xscan.sampled_begin(&trackers, ys, opts.extrapolate, &mut st.x);
+                }
                 xscan.row(&trackers, ys, &mut hits, &mut st.x);
-                for (o, h) in row.iter_mut().zip(&hits) {
-                    *o = h.as_ref().and_then(Pixel::from_hit);
+                if sampled {
+                    xscan.sampled_end(&mut st.x);
+                }
+                for (j, h) in hits.iter().enumerate() {
+                    if let Some(px) = h.as_ref().and_then(Pixel::from_hit) {
+                        pix.push((i * width + j, px));
+                    }
                 }
             }
             Ok((pix, st))
@@ -214,11 +235,9 @@ pub fn render(
         let (pix, st) = r?;
         total.y.add(&st.y);
         total.x.add(&st.x);
-        for (k, px) in pix.iter().enumerate() {
-            let idx = r0 * width + k;
-            debug_assert!(idx < r1 * width);
-            let Some(px) = px else { continue };
-            write_pixel(&mut b, idx, px, &sc, shading);
+        for (idx, px) in &pix {
+            debug_assert!((r0 * width..r1 * width).contains(idx));
+            write_pixel(&mut b, *idx, px, &sc, shading);
         }
     }
     b.samples = sc.evals();
@@ -237,6 +256,7 @@ pub fn render(
     b.stat("trackers_exited", y.exited as f64);
     b.stat("created_at_maxima", y.created_maxima as f64);
     b.stat("created_at_folds", y.created_fold as f64);
+    b.stat("created_at_saddles", y.created_saddles as f64);
     b.stat("net_added", y.net_added as f64);
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);
@@ -260,6 +280,34 @@ pub fn render(
         b.stat("x_samples", s.samples as f64);
         b.stat("x_samples_refined", s.refined as f64);
         b.stat("turn_points", s.turns as f64);
+        b.stat("x_span_tests", s.span_tests as f64);
+        b.stat("x_links_kept", s.links_kept as f64);
+        b.stat("x_wrong_arc", s.wrong_arc as f64);
+        b.stat("x_sideways", s.sideways as f64);
+        // Normal-angle trackers (§4): Newton corrections per update from
+        // the previous position (plain) and from the §3.5 extrapolation.
+        b.stat(
+            "theta_updates",
+            (s.theta_updates + s.theta_updates_ex) as f64,
+        );
+        b.stat(
+            "theta_newton_per_update",
+            per(
+                s.theta_iters + s.theta_iters_ex,
+                s.theta_updates + s.theta_updates_ex,
+            ),
+        );
+        b.stat(
+            "theta_newton_per_update_plain",
+            per(s.theta_iters, s.theta_updates),
+        );
+        b.stat(
+            "theta_newton_per_update_extrapolated",
+            per(s.theta_iters_ex, s.theta_updates_ex),
+        );
+        b.stat("theta_trackers_created", s.theta_created as f64);
+        b.stat("theta_trackers_deleted", s.theta_deleted as f64);
+        b.stat("theta_trackers_lost", s.theta_lost as f64);
     }
     Ok(b)
 }
@@ -424,8 +472,24 @@ mod tests {
 
     #[test]
     fn identical_for_any_thread_count() {
+        for x_scan in [
+            XScanMode::Newton,
+            XScanMode::Sampled {
+                per_turn: 16,
+                max_error: 0.5,
+            },
+        ] {
+            identical_for_any_thread_count_with(x_scan);
+        }
+    }
+
+    fn identical_for_any_thread_count_with(x_scan: XScanMode) {
         let s = shapes::torus(1.0, 0.4);
         let v = view(35.0, 30.0, true);
+        let opts = Options {
+            x_scan,
+            ..Options::default()
+        };
         let run = |n: usize| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
@@ -439,7 +503,7 @@ mod tests {
                     70,
                     &all(),
                     &Shading::default(),
-                    &Options::default(),
+                    &opts,
                     &Cancel::new(),
                 )
                 .unwrap()

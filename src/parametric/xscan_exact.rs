@@ -19,7 +19,7 @@
 
 use super::screen::{Screen, ScreenSample};
 use super::trackers::{Kind, Tracker};
-use crate::surface::ParamSample;
+use glam::DVec3;
 
 /// The visible point of one pixel so far.
 #[derive(Debug, Clone, Copy)]
@@ -28,7 +28,12 @@ pub struct Hit {
     pub u: f64,
     pub v: f64,
     pub jac: f64,
-    pub p: ParamSample,
+    /// World point.
+    pub p: DVec3,
+    /// Unit normal, or zero when it is P_u × P_v normalised (see `pn`).
+    pub n: DVec3,
+    /// P_u × P_v (exact scan).
+    pub pn: DVec3,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -55,6 +60,27 @@ pub struct XStats {
     pub turns: u64,
     /// Newton solves made to place and check samples.
     pub sample_solves: u64,
+    /// Sampled X scan: normal-angle tracker updates from the previous scan
+    /// line (from the previous position: plain; from the §3.5
+    /// extrapolation) and the Newton corrections they made.
+    pub theta_updates: u64,
+    pub theta_iters: u64,
+    pub theta_updates_ex: u64,
+    pub theta_iters_ex: u64,
+    /// Normal-angle trackers whose update failed (deleted, §3.2.3), deleted
+    /// as unused or duplicate, and created (sideways iteration §4.2 or
+    /// refinement).
+    pub theta_lost: u64,
+    pub theta_deleted: u64,
+    pub theta_created: u64,
+    /// Middle-pixel tests of spans, and spans taken from the previous
+    /// scan line's links without a test.
+    pub span_tests: u64,
+    pub links_kept: u64,
+    /// Carried samples found on another arc, and samples made by the
+    /// sideways iteration.
+    pub wrong_arc: u64,
+    pub sideways: u64,
 }
 
 impl XStats {
@@ -71,6 +97,17 @@ impl XStats {
         self.refined += o.refined;
         self.turns += o.turns;
         self.sample_solves += o.sample_solves;
+        self.theta_updates += o.theta_updates;
+        self.theta_iters += o.theta_iters;
+        self.theta_updates_ex += o.theta_updates_ex;
+        self.theta_iters_ex += o.theta_iters_ex;
+        self.theta_lost += o.theta_lost;
+        self.theta_deleted += o.theta_deleted;
+        self.theta_created += o.theta_created;
+        self.span_tests += o.span_tests;
+        self.links_kept += o.links_kept;
+        self.wrong_arc += o.wrong_arc;
+        self.sideways += o.sideways;
     }
 }
 
@@ -98,6 +135,10 @@ pub struct XScan<'a> {
     pub saddles: Vec<ScreenSample>,
     /// Checked every few dozen pixels (slow surfaces: Python callables).
     pub cancel: Option<&'a crate::cancel::Cancel>,
+    /// Sampled X scan: depth unit (the pixel size at the view distance) of
+    /// the cross-section angle, and the normal-angle trackers of the band.
+    pub zs: f64,
+    pub pool: std::cell::RefCell<super::xscan_sampled::Pool>,
 }
 
 impl<'a> XScan<'a> {
@@ -110,6 +151,8 @@ impl<'a> XScan<'a> {
             sampled: None,
             saddles: Vec::new(),
             cancel: None,
+            zs: 1.0,
+            pool: Default::default(),
         }
     }
 
@@ -140,6 +183,20 @@ impl<'a> XScan<'a> {
         xp: f64,
         iters: &mut u64,
     ) -> Option<ScreenSample> {
+        self.newton_tol(u, v, ys, xp, 1e-9, iters)
+    }
+
+    /// [`newton`](Self::newton) stopping once |y − ys| and |x − xp| are
+    /// below `tol` pixels.
+    pub fn newton_tol(
+        &self,
+        u: f64,
+        v: f64,
+        ys: f64,
+        xp: f64,
+        tol: f64,
+        iters: &mut u64,
+    ) -> Option<ScreenSample> {
         let d = self.sc.dom;
         let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
         for _ in 0..12 {
@@ -153,8 +210,9 @@ impl<'a> XScan<'a> {
             if !(du.is_finite() && dv.is_finite()) {
                 return None;
             }
-            if (f.abs() < 1e-9 && g.abs() < 1e-9) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
-                return (f.abs() < 1e-6 && g.abs() < 1e-6).then_some(s);
+            if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
+                let ok = tol.max(1e-6);
+                return (f.abs() < ok && g.abs() < ok).then_some(s);
             }
             if du.abs().max(dv.abs()) > 0.25 * self.ext {
                 return None;
@@ -370,6 +428,19 @@ impl<'a> XScan<'a> {
         xp: f64,
         st: &mut XStats,
     ) -> Option<ScreenSample> {
+        self.try_newton_tol(cur, sigma, ys, xp, 1e-9, st)
+    }
+
+    /// [`try_newton`](Self::try_newton) to a tolerance of `tol` pixels.
+    pub(crate) fn try_newton_tol(
+        &self,
+        cur: &ScreenSample,
+        sigma: f64,
+        ys: f64,
+        xp: f64,
+        tol: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
         let jc = cur.jac();
         let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
         if jc * sigma <= 1e-3 * jscale {
@@ -379,7 +450,7 @@ impl<'a> XScan<'a> {
         let (g, f) = (xp - cur.x, ys - cur.y);
         let pu = (g * cur.yv - cur.xv * f) / jc;
         let pv = (cur.xu * f - cur.yu * g) / jc;
-        let q = self.newton(cur.u + pu, cur.v + pv, ys, xp, &mut st.pixel_iters)?;
+        let q = self.newton_tol(cur.u + pu, cur.v + pv, ys, xp, tol, &mut st.pixel_iters)?;
         let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
         let pred = pu.abs().max(pv.abs());
         (q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext).then_some(q)
@@ -431,7 +502,9 @@ impl<'a> XScan<'a> {
                     u: q.u,
                     v: q.v,
                     jac: q.jac(),
-                    p: q.p,
+                    p: q.p.p,
+                    n: DVec3::ZERO,
+                    pn: q.p.pu.cross(q.p.pv),
                 },
             );
             cur = q;

@@ -50,9 +50,11 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// Render a parametric surface by Blinn's scan line algorithm.
 ///
 /// Options (keywords of `fcol.render`): `x_scan` ("newton": Newton per
-/// pixel, exact; "sampled": samples at equal steps of the normal angle with
-/// normals interpolated between them), `samples_per_turn` (sampled: at least
-/// this many samples per full turn of the normal, default 16),
+/// pixel, exact; "sampled": Blinn's §4 — trackers at equal steps of the
+/// normal angle of the scan line's cross-section, carried from scan line to
+/// scan line, normals interpolated between them), `samples_per_turn`
+/// (sampled: at least this many samples per full turn of the normal,
+/// default 16),
 /// `max_normal_error` (sampled: degrees, default 0.5; more samples where the
 /// interpolated normal would be further off), `grid` (nodes per parameter of
 /// the maxima search and the safety net, default 97), `extrapolate`
@@ -60,7 +62,8 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// shading options. `fcol.render` calls it for `fcol.Parametric` surfaces.
 ///
 /// `image.stats` holds the counters of the run: `maxima`, `saddles`,
-/// `parabolic_maxima` (§3.4), `silhouette_y_extrema` (curtain folds and
+/// `parabolic_maxima` (§3.4), `created_at_saddles` (§3.2.2.4),
+/// `silhouette_y_extrema` (curtain folds and
 /// stationary points on the silhouette), `newton_per_update` (Newton
 /// corrections per tracker update) and `newton_per_update_tenth_px` (those
 /// larger than 0.1 px, the seed's stopping rule), `trackers_lost`
@@ -68,7 +71,14 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// `net_added` (trackers the safety net supplied), `newton_per_pixel`,
 /// `fold_walks`, `border_walks`, `convergence_failures` (X-scan
 /// continuations that gave up; pixels may be missing there), and for the
-/// sampled scan `x_samples`, `x_samples_refined`, `turn_points`.
+/// sampled scan `x_samples` (span ends used), `x_samples_refined` (spans
+/// split for the error bound), `turn_points` (§4.3), `x_span_tests`,
+/// `x_links_kept` (spans taken from the previous scan line's links),
+/// `x_wrong_arc`, `x_sideways` (samples made by the §4.2 sideways
+/// iteration), `theta_updates` (normal-angle tracker updates between scan
+/// lines), `theta_newton_per_update` with its `_plain` and `_extrapolated`
+/// parts (§3.5), `theta_trackers_created`, `theta_trackers_deleted`
+/// (unused or merged) and `theta_trackers_lost` (Newton failed, §3.2.3).
 ///
 /// >>> import fcol, math
 /// >>> s = fcol.Parametric("cos(v)*cos(u)", "cos(v)*sin(u)", "sin(v)",

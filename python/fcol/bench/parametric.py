@@ -9,7 +9,15 @@ scan-line time per image row the surface covers (the seed reports 0.4 s per
 scan line for a sphere); ``newton_upd`` is the mean number of Newton
 corrections per tracker update (full precision) and ``newton_upd_0.1px``
 the number larger than a tenth of a pixel (the seed's stopping rule: 2.5
-plain, under 1 with extrapolation)."""
+plain, under 1 with extrapolation). For the sampled X scan ``theta_upd``
+and ``theta_upd_plain`` are the Newton corrections per update of its
+normal-angle trackers with and without the §3.5 extrapolation.
+
+The ``equal error`` rows pair each sampled X scan with the coarsest
+tessellation (for ``fcol.raster.triangles`` and for embree) whose normal
+error (99th percentile) is at most the sampled scan's, and give the time
+ratio ``speedup`` = tessellation time / sampled time (> 1: the sampled
+scan is faster)."""
 
 from __future__ import annotations
 
@@ -90,7 +98,9 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
             if "ssim" in m:
                 r["ssim"] = m["ssim"]
             r.update(extra)
-            curves.setdefault(f"{name}: {method.split(' ')[0]}", []).append((t, r["normal_p99_deg"]))
+            words = method.split(" ")
+            curve = " ".join(words[:2]) if words[0] == "scanline" else words[0]
+            curves.setdefault(f"{name}: {curve}", []).append((t, r["normal_p99_deg"]))
             return r
 
         # Exact X scan.
@@ -107,6 +117,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
                         newton_px=s["newton_per_pixel"], samples=img.samples,
                         failures=s["convergence_failures"], note=f"reference {t_ref:.1f} s"))
         # Sampled X scan: the seed's fixed 16 per turn, and error-driven.
+        sampled_rows = []
         for label, opts in (("scanline sampled 16/turn", dict(samples_per_turn=16, max_normal_error=90.0)),
                             ("scanline sampled 0.5°", dict()), ("scanline sampled 2°", dict(max_normal_error=2.0))):
             t = median_time(lambda: fcol.render(surf, view, px, px, outputs=("rgb",), x_scan="sampled", **opts),  # noqa: B023
@@ -114,11 +125,18 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
             img = fcol.render(surf, view, px, px, outputs=outs, x_scan="sampled", **opts)
             m = compare(img, ref, view)
             lines = int(img.mask.any(1).sum())
+            s = img.stats
+            plain = fcol.render(surf, view, px, px, outputs=("mask",), x_scan="sampled", extrapolate=False,
+                                **opts).stats
             rows.append(row(label, t, m, per_line_ms=t * 1e3 / max(lines, 1), samples=img.samples,
-                            x_samples=img.stats["x_samples"]))
+                            x_samples=s["x_samples"], theta_upd=s["theta_newton_per_update_extrapolated"],
+                            theta_upd_plain=plain["theta_newton_per_update_plain"],
+                            created=s["theta_trackers_created"], deleted=s["theta_trackers_deleted"],
+                            lost=s["theta_trackers_lost"], failures=s["convergence_failures"]))
+            sampled_rows.append(rows[-1])
         # Tessellate + trimesh/embreex ray casting (normals interpolated
         # from exact vertex normals), BVH build included.
-        for n in ((32, 64, 128) if quick else (32, 64, 128, 256, 512)):
+        for n in ((16, 32, 64, 128) if quick else (16, 24, 32, 48, 64, 96, 128, 256)):
             def cast(n=n):
                 mesh = mesh_parametric(xyz, dom, n, jac=jac)
                 return cast_parametric_mesh(mesh, view, px, px)[0]
@@ -132,7 +150,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
                              min_time=0.0)
             rows[-1]["cast_only_ms"] = t2 * 1e3
         # Tessellate + fcol.raster.triangles.
-        for n in ((32, 64, 128) if quick else (32, 64, 128, 256, 512)):
+        for n in ((16, 32, 64, 128) if quick else (16, 24, 32, 48, 64, 96, 128, 192, 256)):
             t = median_time(lambda: _raster_triangles(surf, dom, view, n, px), repeat=repeat, min_time=0.0)  # noqa: B023
             depth, nrm = _raster_triangles(surf, dom, view, n, px)
 
@@ -146,6 +164,20 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
                 im.normal = (nrm / np.linalg.norm(nrm, axis=-1, keepdims=True)).astype(np.float32)
             m = compare(im, ref, view)
             rows.append(row(f"raster.triangles {n}²", t, m, note="tessellate + project + z-buffer"))
+        # Equal error: the coarsest tessellation at least as accurate as
+        # each sampled scan.
+        for sr in sampled_rows:
+            for kind in ("raster.triangles", "embreex"):
+                tess = [r for r in rows if r["surface"] == name and r["method"].startswith(kind)
+                        and r["normal_p99_deg"] <= sr["normal_p99_deg"]]
+                if not tess:
+                    continue
+                best = min(tess, key=lambda r: int(r["method"].split(" ")[1].rstrip("²")))
+                rows.append({"surface": name, "view": view.projection, "size": f"{px}²",
+                             "method": f"equal error: {sr['method'].split('scanline ')[1]} vs {best['method']}",
+                             "ms": sr["ms"], "normal_p99_deg": sr["normal_p99_deg"],
+                             "note": f"{kind} {best['ms']:.1f} ms at p99 {best['normal_p99_deg']:.3g}°",
+                             "speedup": best["ms"] / sr["ms"]})
 
     try:
         import matplotlib

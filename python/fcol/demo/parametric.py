@@ -50,7 +50,9 @@ def gallery(out_dir: Path) -> list[dict[str, Any]]:
             (out_dir / file).write_bytes(png_bytes(img.rgb))
             s = img.stats
             extra = (f"{s['newton_per_update']:.2f} Newton/update, {s['newton_per_pixel']:.2f} per pixel"
-                     if x_scan == "newton" else f"{int(s['x_samples'])} normal-angle samples")
+                     if x_scan == "newton" else
+                     f"{int(s['x_samples'])} normal-angle samples, {int(s['theta_updates'])} tracker updates at "
+                     f"{s['theta_newton_per_update']:.2f} Newton each")
             rows.append({"section": "parametric", "file": file, "size": f"{size}x{size}", "ms": round(dt * 1e3, 1),
                          "samples": img.samples,
                          "note": f"{note}; {x_scan} X scan; {extra}; {int(s['convergence_failures'])} failures"})
