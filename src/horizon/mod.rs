@@ -398,22 +398,22 @@ pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -
         }
         return Ok(out);
     }
-    let res = out
-        .par_chunks_mut(n)
-        .zip(list.par_iter())
-        .try_for_each(|(plane, &i)| -> Result<()> {
-            let f = Frame::new(i, o.sectors);
-            match o.method {
-                Method::Brute => unreachable!(),
-                Method::Stewart => stewart::sector_pooled(t, &f, o, plane, cancel, progress)?,
-                Method::Cms => cms::sector(t, &f, o, plane, cancel, progress)?,
-                Method::Sweep => sweep::sector(t, &f, o, plane, cancel, progress)?,
-            }
-            if o.near_vertex && o.method == Method::Stewart {
-                cms::near_vertex(t, &f, o, plane, cancel)?;
-            }
-            Ok(())
-        });
+    let res =
+        out.par_chunks_mut(n)
+            .zip(list.par_iter())
+            .try_for_each(|(plane, &i)| -> Result<()> {
+                let f = Frame::new(i, o.sectors);
+                match o.method {
+                    Method::Brute => unreachable!(),
+                    Method::Stewart => stewart::sector_pooled(t, &f, o, plane, cancel, progress)?,
+                    Method::Cms => cms::sector(t, &f, o, plane, cancel, progress)?,
+                    Method::Sweep => sweep::sector(t, &f, o, plane, cancel, progress)?,
+                }
+                if o.near_vertex && o.method == Method::Stewart {
+                    cms::near_vertex(t, &f, o, plane, cancel)?;
+                }
+                Ok(())
+            });
     if o.method == Method::Stewart {
         rayon::broadcast(|_| stewart::release());
         stewart::release();

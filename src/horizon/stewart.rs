@@ -122,7 +122,8 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
     }
     let cmp = |i: &u32, j: &u32| {
         let (i, j) = (*i as usize, *j as usize);
-        k1[i].total_cmp(&k1[j])
+        k1[i]
+            .total_cmp(&k1[j])
             .then(k2[j].total_cmp(&k2[i]))
             .then(i.cmp(&j))
     };
@@ -418,8 +419,11 @@ pub fn sector_with(
     }
     // The points in processing order with their leaf, read sequentially.
     w.seq.clear();
-    w.seq
-        .extend(w.order.iter().map(|&i| (w.pr[i as usize], w.rank[i as usize])));
+    w.seq.extend(
+        w.order
+            .iter()
+            .map(|&i| (w.pr[i as usize], w.rank[i as usize])),
+    );
     let nb = w.reset_tree(n);
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));
     for step in 0..n {
