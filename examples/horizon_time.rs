@@ -7,7 +7,9 @@ use _fcol::Cancel;
 use std::time::Instant;
 
 fn terrain(side: usize, seed: u64) -> Vec<f64> {
-    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut s = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
     let mut rnd = move || {
         s ^= s << 13;
         s ^= s >> 7;

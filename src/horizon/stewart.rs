@@ -143,9 +143,9 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
 /// processed so far are stored at their leaf, and the covering sets met at
 /// those levels from leaf k are exactly the leaves k+1 .. end of k's block,
 /// whose maximum is taken directly: the tangent of a hull is the maximum of
-/// the points it was built from (§IV-B), and the block is one or two cache
+/// the points it was built from (§IV-B), and the block (16 points) is four cache
 /// lines instead of `LOW` nodes far apart.
-const LOW: u32 = 3;
+const LOW: u32 = 4;
 const BLOCK: usize = 1 << LOW;
 /// Points kept inline in a node (two cache lines); larger hulls spill.
 const INLINE: usize = 8;
