@@ -166,6 +166,30 @@ struct Meta {
     /// Inline hull length, or `SPILLED` (then `spill` names the vector).
     len: u32,
     spill: u32,
+    /// Bounds of every point inserted so far: smallest and largest w,
+    /// largest Z (the extreme points of a set are vertices of its hull).
+    wmin: f64,
+    wmax: f64,
+    zmax: f64,
+}
+
+impl Meta {
+    /// Can no point of this hull beat a current best of slope `bs` seen
+    /// from `p`? Its slopes (Z − Z_p)/(w − w_p) are at most the bound
+    /// below; the margin (1e-12 relative) is far above the few rounding
+    /// errors of the two quotients, so a skip is never wrong (and a tie,
+    /// which the exact comparison would settle by distance, is never
+    /// skipped).
+    #[inline]
+    fn cannot_beat(&self, p: Proj, bs: f64) -> bool {
+        let num = self.zmax - p.zz;
+        let den = if num >= 0.0 { self.wmin } else { self.wmax } - p.w;
+        if den <= 0.0 {
+            return false;
+        }
+        let bound = num / den;
+        bound < bs - 1e-12 * (bound.abs() + bs.abs())
+    }
 }
 
 const ABSENT: Proj = Proj {
@@ -259,6 +283,9 @@ impl Work {
                 open: 0,
                 len: 0,
                 spill: 0,
+                wmin: f64::INFINITY,
+                wmax: f64::NEG_INFINITY,
+                zmax: f64::NEG_INFINITY,
             },
         );
         let log_nb = nb.trailing_zeros();
@@ -305,6 +332,9 @@ impl Work {
     #[inline]
     fn insert(&mut self, m: usize, q: Proj) {
         let md = &mut self.meta[m];
+        md.wmin = md.wmin.min(q.w);
+        md.wmax = md.wmax.max(q.w);
+        md.zmax = md.zmax.max(q.zz);
         if md.len == SPILLED {
             insert(&mut self.spill[md.spill as usize], q);
             return;
@@ -453,14 +483,26 @@ pub fn sector_with(
             }
         }
         w.leaf[k] = p;
+        // Slope of the best so far (−∞: none), to skip hulls that cannot
+        // beat it without reading them.
+        let slope = |b: Option<Proj>| match b {
+            Some(q) if q.w > p.w => (q.zz - p.zz) / (q.w - p.w),
+            _ => f64::NEG_INFINITY,
+        };
+        let mut bs = slope(best);
         let mut x = nb + k / BLOCK;
         while x > 1 {
             let m = x >> 1;
             if x & 1 == 0 {
                 // Step 1: the left child's hull covers part of Σ_{*,k}.
-                let h = w.hull(m);
-                if !h.is_empty() {
-                    best = pick(p, best, h[tangent(h, p)]);
+                let md = &w.meta[m];
+                if md.len != 0 && !md.cannot_beat(p, bs) {
+                    let h = w.hull(m);
+                    let nbest = pick(p, best, h[tangent(h, p)]);
+                    if nbest != best {
+                        best = nbest;
+                        bs = slope(best);
+                    }
                 }
                 w.close_one(m);
             } else if w.meta[m].open > 0 {
