@@ -129,8 +129,8 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
     };
     // After the scatter, count[b] is the end of bucket b.
     let mut start = 0usize;
-    for b in 0..nb {
-        let end = count[b] as usize;
+    for &end in &count[..nb] {
+        let end = end as usize;
         if end - start > 1 {
             out[start..end].sort_unstable_by(cmp);
         }
