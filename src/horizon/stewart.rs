@@ -149,7 +149,7 @@ const LOW: u32 = 4;
 const BLOCK: usize = 1 << LOW;
 /// Points kept inline in a node (two cache lines); larger hulls spill.
 const INLINE: usize = 8;
-const PREFETCH_AHEAD: usize = 8;
+const PREFETCH_AHEAD: usize = 12;
 const SPILLED: u32 = u32::MAX;
 
 /// The hull of a node, inline (128 bytes, two cache lines).
@@ -465,7 +465,12 @@ pub fn sector_with(
         // apart): fetch the block and slots of a point a few steps ahead.
         if let Some(&(_, ka)) = w.seq.get(step + PREFETCH_AHEAD) {
             let ka = ka as usize;
-            prefetch(w.leaf.as_ptr().wrapping_add(ka));
+            // the block's lines from k to its end (4 points per line)
+            let mut kk = ka;
+            while kk <= (ka | (BLOCK - 1)) {
+                prefetch(w.leaf.as_ptr().wrapping_add(kk));
+                kk = (kk | 3) + 1;
+            }
             let mut x = nb + ka / BLOCK;
             while x > 1 {
                 prefetch(w.meta.as_ptr().wrapping_add(x >> 1));

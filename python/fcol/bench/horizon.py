@@ -56,7 +56,7 @@ def _time_cpu(fn: Any, budget: float) -> tuple[float, float]:
 
 def _topocalc() -> Any:
     try:
-        import topocalc.horizon as th  # type: ignore[import-not-found]
+        import topocalc.horizon as th  # type: ignore[import-not-found,import-untyped,unused-ignore]
 
         return th
     except Exception:
@@ -187,7 +187,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
         hs = fcol.horizon_map(zdem, extent=ext, geographic=True, earth_curvature=False, sectors=72, method="sweep")
         rec["fcol_sweep_mean"] = float(np.nanmean(hs.sky_view_factor()))
         if th is not None:
-            import topocalc.viewf as tv  # type: ignore[import-not-found]
+            import topocalc.viewf as tv  # type: ignore[import-not-found,import-untyped,unused-ignore]
 
             spacing = float(np.sqrt(abs(hm.spacing[0] * hm.spacing[1])))
             t0 = time.perf_counter()
