@@ -353,7 +353,7 @@ def test_bad_input() -> None:
     with pytest.raises(ValueError, match="z"):
         fcol.horizon_map(np.zeros((2, 2, 2)))
     with pytest.raises(ValueError, match="max_distance"):
-        fcol.horizon_map(z, method="stewart", max_distance=3.0)
+        fcol.horizon_map(z, method="stewart", max_distance=-3.0)
     with pytest.raises(ValueError, match="spacing"):
         fcol.horizon_map(z, spacing=(0.0, 1.0))
     with pytest.raises(ValueError, match="sectors_subset"):
@@ -367,11 +367,31 @@ def test_bad_input() -> None:
 def test_max_distance() -> None:
     z = np.zeros((30, 30))
     z[:, 25] = 10.0  # a wall
-    for m in ("brute", "cms", "sweep"):
+    for m in ("stewart", "brute", "cms", "sweep"):
         near = fcol.horizon_map(z, sectors=8, method=m, max_distance=5.0).elevation
         far = fcol.horizon_map(z, sectors=8, method=m).elevation
         assert far[0, 15, 10] > 0 and near[0, 15, 10] == 0.0, m
         assert near[0, 15, 22] > 0, m
+
+
+@pytest.mark.parametrize("s", [8, 64])
+def test_stewart_max_distance_equals_brute(s: int) -> None:
+    rng = np.random.default_rng(5)
+    z = np.cumsum(rng.normal(size=(21, 26)), axis=1) + rng.integers(0, 4, size=(21, 26))
+    z[3, 4] = np.nan
+    for d in (1.0, 2.5, 7.0, 40.0):
+        kw = dict(spacing=(1.0, -1.5), sectors=s, max_distance=d)
+        a = fcol.horizon_map(z, method="stewart", **kw).elevation
+        b = fcol.horizon_map(z, method="brute", **kw).elevation
+        assert_bit_equal(a, b)
+    x, y = rng.integers(0, 30, size=(2, 200)).astype(float)
+    keep = np.unique(x * 100 + y, return_index=True)[1]
+    x, y = x[keep], y[keep]
+    zp = rng.integers(0, 6, size=x.size).astype(float)
+    for d in (1.5, 4.0, 12.0):
+        a = fcol.horizon_points(x, y, zp, sectors=s, method="stewart", max_distance=d)
+        b = fcol.horizon_points(x, y, zp, sectors=s, method="brute", max_distance=d)
+        assert_bit_equal(a, b)
 
 
 def test_progress_callback_and_silence(capsys: pytest.CaptureFixture[str]) -> None:

@@ -401,8 +401,8 @@ def horizon_map(
         along each centre direction on digital lines through the grid,
         O(n) per direction.
     max_distance : float, optional
-        Ignore terrain farther than this (metres; along the line for cms and
-        sweep). Not available with ``stewart``.
+        Ignore terrain farther than this (metres; horizontal distance for
+        stewart and brute, along the line for cms and sweep).
     sectors_subset : sequence of int, optional
         Compute only these sectors (e.g. the one where the sun sets).
     geographic : bool

@@ -355,12 +355,6 @@ pub fn validate(t: &Terrain, o: &Options) -> Result<()> {
                 format!("must be positive, got {d}"),
             ));
         }
-        if o.method == Method::Stewart {
-            return Err(FcolError::value(
-                "max_distance",
-                "is not available with method=\"stewart\" (its hull tree covers whole sectors); use \"sweep\", \"cms\" or \"brute\"",
-            ));
-        }
     }
     if !o.curvature.is_finite() || o.curvature < 0.0 {
         return Err(FcolError::value(
@@ -405,21 +399,27 @@ pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -
         }
         return Ok(out);
     }
-    out.par_chunks_mut(n)
-        .zip(list.par_iter())
-        .try_for_each(|(plane, &i)| -> Result<()> {
-            let f = Frame::new(i, o.sectors);
-            match o.method {
-                Method::Brute => unreachable!(),
-                Method::Stewart => stewart::sector(t, &f, o, plane, cancel, progress)?,
-                Method::Cms => cms::sector(t, &f, o, plane, cancel, progress)?,
-                Method::Sweep => sweep::sector(t, &f, o, plane, cancel, progress)?,
-            }
-            if o.near_vertex && o.method == Method::Stewart {
-                cms::near_vertex(t, &f, o, plane, cancel)?;
-            }
-            Ok(())
-        })?;
+    let res =
+        out.par_chunks_mut(n)
+            .zip(list.par_iter())
+            .try_for_each(|(plane, &i)| -> Result<()> {
+                let f = Frame::new(i, o.sectors);
+                match o.method {
+                    Method::Brute => unreachable!(),
+                    Method::Stewart => stewart::sector_pooled(t, &f, o, plane, cancel, progress)?,
+                    Method::Cms => cms::sector(t, &f, o, plane, cancel, progress)?,
+                    Method::Sweep => sweep::sector(t, &f, o, plane, cancel, progress)?,
+                }
+                if o.near_vertex && o.method == Method::Stewart {
+                    cms::near_vertex(t, &f, o, plane, cancel)?;
+                }
+                Ok(())
+            });
+    if o.method == Method::Stewart {
+        rayon::broadcast(|_| stewart::release());
+        stewart::release();
+    }
+    res?;
     Ok(out)
 }
 

@@ -112,24 +112,34 @@ fn spike_shadows_whole_sector() {
 #[test]
 fn sweep_matches_line_brute() {
     let mut r = rng(11);
-    let (h, w) = (20, 23);
-    let z: Vec<f64> = (0..h * w).map(|_| (r() % 500) as f64 / 50.0).collect();
-    let t = Terrain::from_grid(z.clone(), h, w, 1.0, 1.5).unwrap();
-    let s = 16;
-    let a = run(&t, &Options::new(s, Method::Sweep));
-    let mut o = Options::new(s, Method::Sweep);
-    o.max_distance = Some(1e9); // the direct scan path
-    let b = run(&t, &o);
-    for (x, y) in a.iter().zip(&b) {
-        assert!((x - y).abs() < 1e-6, "{x} {y}");
+    // (the larger grid has more lines than one block of the sweep)
+    for (h, w, s, c) in [(20, 23, 16, 0.0), (150, 131, 24, 1e-3)] {
+        let mut z: Vec<f64> = (0..h * w).map(|_| (r() % 500) as f64 / 50.0).collect();
+        z[w + 3] = f64::NAN;
+        let t = Terrain::from_grid(z.clone(), h, w, 1.0, 1.5).unwrap();
+        let mut o = Options::new(s, Method::Sweep);
+        o.curvature = c;
+        let a = run(&t, &o);
+        o.max_distance = Some(1e9); // the direct scan path
+        let b = run(&t, &o);
+        for (x, y) in a.iter().zip(&b) {
+            assert!(
+                (x - y).abs() < 1e-6 || (x.is_nan() && y.is_nan()),
+                "{x} {y}"
+            );
+        }
+        assert_eq!(a.iter().filter(|v| v.is_nan()).count(), s);
     }
 }
 
 #[test]
 fn fast_atan_accuracy() {
+    assert_eq!(sweep::atan_select(f64::NEG_INFINITY) as f32, EMPTY);
+    assert!(sweep::atan_select(f64::NAN).is_nan());
     let mut x = -50.0;
     while x < 50.0 {
         assert!((sweep::fast_atan(x) - x.atan()).abs() < 2e-7, "{x}");
+        assert_eq!(sweep::atan_select(x), sweep::fast_atan(x), "{x}");
         x += 0.0137;
     }
 }
@@ -171,6 +181,58 @@ fn hull_insert_is_upper_hull() {
                 assert!(k > 0 && k < h.len());
                 let (a, b) = (h[k - 1], h[k]);
                 assert!(exact::orient((a.w, a.zz), (b.w, b.zz), (p.w, p.zz)) <= 0);
+            }
+        }
+    }
+}
+
+#[test]
+fn stewart_max_distance_equals_brute() {
+    let mut r = rng(21);
+    // Grids: anisotropic, north-up, with a hole and curvature.
+    let (h, w) = (19, 23);
+    let mut z: Vec<f64> = (0..h * w).map(|_| (r() % 900) as f64 / 60.0).collect();
+    z[57] = f64::NAN;
+    for (du, dv) in [(1.0, 1.0), (0.7, -1.3)] {
+        let t = Terrain::from_grid(z.clone(), h, w, du, dv).unwrap();
+        for s in [8usize, 64] {
+            for d in [0.5, 1.0, 2.9, 6.0, 15.0, 1e6] {
+                for c in [0.0, 2e-3] {
+                    let mut o = Options::new(s, Method::Brute);
+                    o.max_distance = Some(d);
+                    o.curvature = c;
+                    let a = run(&t, &o);
+                    o.method = Method::Stewart;
+                    let b = run(&t, &o);
+                    assert!(same_bits(&a, &b), "du {du} dv {dv} s {s} d {d} c {c}");
+                }
+            }
+        }
+    }
+    // Scattered points, lattice coordinates (exact border alignments).
+    let mut seen = std::collections::HashSet::new();
+    let (mut x, mut y, mut zz) = (vec![], vec![], vec![]);
+    while x.len() < 300 {
+        let (a, b) = ((r() % 50) as i64, (r() % 50) as i64);
+        if seen.insert((a, b)) {
+            x.push(a as f64 * 0.5);
+            y.push(b as f64 * 0.5);
+            zz.push((r() % 9) as f64);
+        }
+    }
+    let t = Terrain::from_points(x, y, zz).unwrap();
+    for s in [8usize, 64] {
+        for d in [0.5, 2.0, 5.0, 11.0, 100.0] {
+            let mut o = Options::new(s, Method::Brute);
+            o.max_distance = Some(d);
+            let a = run(&t, &o);
+            o.method = Method::Stewart;
+            let b = run(&t, &o);
+            assert!(same_bits(&a, &b), "points s {s} d {d}");
+            // the limit matters: some horizons differ from the unlimited map
+            if d < 5.0 {
+                let full = run(&t, &Options::new(s, Method::Stewart));
+                assert!(!same_bits(&full, &b), "points s {s} d {d}");
             }
         }
     }

@@ -41,22 +41,25 @@ def _terrain(side: int, seed: int = 0) -> np.ndarray:
 
 def _time(fn: Any, budget: float) -> float:
     """Wall time of one call (several calls for fast ones, median)."""
-    t0 = time.perf_counter()
-    fn()
-    t = time.perf_counter() - t0
-    if t * 3 < budget:
-        reps = []
-        for _ in range(3):
-            t0 = time.perf_counter()
-            fn()
-            reps.append(time.perf_counter() - t0)
-        t = float(np.median(reps + [t]))
-    return t
+    return _time_cpu(fn, budget)[0]
+
+
+def _time_cpu(fn: Any, budget: float) -> tuple[float, float]:
+    """Wall and CPU time (all threads of this process) of one call; fast
+    calls are repeated and the medians taken."""
+    walls, cpus = [], []
+    while True:
+        c0, t0 = time.process_time(), time.perf_counter()
+        fn()
+        walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
+        if len(walls) >= 4 or walls[0] * 3 >= budget:
+            return float(np.median(walls)), float(np.median(cpus))
 
 
 def _topocalc() -> Any:
     try:
-        import topocalc.horizon as th  # type: ignore[import-not-found]
+        import topocalc.horizon as th  # type: ignore[import-not-found,import-untyped,unused-ignore]
 
         return th
     except Exception:
@@ -76,33 +79,40 @@ def _child(code: str, threads: int | None = None) -> dict[str, Any]:
 
 
 CHILD = """
-import json, resource, time, numpy as np, fcol
+import json, time, numpy as np, fcol
 from fcol.bench.horizon import _terrain
 z = _terrain({side})
-t0 = time.perf_counter(); fcol.horizon_map(z, 1.0, sectors={s}, method={method!r}); t = time.perf_counter() - t0
-cpu = resource.getrusage(resource.RUSAGE_SELF)
+c0 = time.process_time(); t0 = time.perf_counter()
+fcol.horizon_map(z, 1.0, sectors={s}, method={method!r})
+t = time.perf_counter() - t0; c = time.process_time() - c0
 # VmHWM (peak resident set of this process image; ru_maxrss survives exec)
 hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")]
 peak = int(hwm[0].split()[1]) / 1024 if hwm else float("nan")
-print(json.dumps(dict(seconds=t, cpu=cpu.ru_utime + cpu.ru_stime, maxrss_mb=peak)))
+print(json.dumps(dict(seconds=t, cpu=c, maxrss_mb=peak)))
 """
 
 
 def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
     out_dir = Path(out_dir)
     rows: list[dict[str, Any]] = []
-    sides = [32, 56, 100, 178, 316, 562, 1000] if not quick else [32, 56, 100, 178]
-    limits = {"brute": 100 if not quick else 56, "cms": 316 if not quick else 100, "stewart": 1000, "sweep": 1000}
+    # Sizes shared with the topocalc comparison below, which reuses these
+    # timings (same run, same terrain). brute stops at n = 3136 (n = 1e4
+    # takes ~20 s) and cms at n = 31684 (~20 s), so that the section stays
+    # near five minutes.
+    sides = [32, 56, 100, 178, 316, 512, 1024] if not quick else [32, 56, 100, 178, 256]
+    limits = {"brute": 56, "cms": 178 if not quick else 100, "stewart": 1024, "sweep": 1024}
     times: dict[str, list[tuple[int, float]]] = {m: [] for m in limits}
+    measured: dict[tuple[str, int], tuple[float, float]] = {}
     for side in sides:
         z = _terrain(side)
         n = side * side
         for m in ("sweep", "stewart", "cms", "brute"):
             if side > limits[m]:
                 continue
-            t = _time(lambda: fcol.horizon_map(z, 1.0, sectors=S, method=m), budget=2.0)
+            t, cpu = _time_cpu(lambda: fcol.horizon_map(z, 1.0, sectors=S, method=m), budget=2.0)
             times[m].append((n, t))
-            rows.append({"table": "I", "n": n, "method": m, "seconds": t, "ns_per_point_dir": t * 1e9 / (n * S)})
+            measured[(m, side)] = (t, cpu)
+            rows.append({"table": "I", "n": n, "method": m, "seconds": t, "cpu_seconds": cpu, "ns_per_point_dir": t * 1e9 / (n * S)})
     fits = {}
     for m, pts in times.items():
         big = [(n, t) for n, t in pts if n >= 3000] or pts
@@ -123,19 +133,23 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
         z = _terrain(side)
         n = side * side
         rec: dict[str, Any] = {"table": "vs-topocalc", "n": n, "directions": S}
-        t_st = _time(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="stewart"), 5.0)
-        t_sw = _time(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="sweep"), 5.0)
-        rec.update(stewart_s=t_st, sweep_s=t_sw)
+        # Table I's measurement when it has this size (same run, same terrain)
+        t_st, c_st = measured.get(("stewart", side)) or _time_cpu(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="stewart"), 5.0)
+        t_sw, c_sw = measured.get(("sweep", side)) or _time_cpu(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="sweep"), 5.0)
+        rec.update(stewart_s=t_st, sweep_s=t_sw, stewart_cpu_s=c_st, sweep_cpu_s=c_sw)
         if th is not None:
-            t_tc = _time(lambda: _topocalc_all(th, z, 1.0, S), 5.0)
-            rec.update(topocalc_s=t_tc, topocalc_ns_per_point_dir=t_tc * 1e9 / (n * S), stewart_speedup=t_tc / t_st, sweep_speedup=t_tc / t_sw)
+            t_tc, c_tc = _time_cpu(lambda: _topocalc_all(th, z, 1.0, S), 5.0)
+            rec.update(
+                topocalc_s=t_tc, topocalc_cpu_s=c_tc, topocalc_ns_per_point_dir=t_tc * 1e9 / (n * S),
+                stewart_speedup=t_tc / t_st, sweep_speedup=t_tc / t_sw,
+                stewart_cpu_ratio=c_tc / c_st, sweep_cpu_ratio=c_tc / c_sw,
+            )
         else:
             rec["topocalc_s"] = "not installed"
         rows.append(rec)
 
     # cores, CPU per point and direction, peak memory (child processes)
-    side = 512 if not quick else 256
-    for m in ("sweep", "stewart"):
+    for m, side in (("sweep", 1024), ("stewart", 256)) if not quick else (("sweep", 256), ("stewart", 256)):
         one = _child(CHILD.format(side=side, s=S, method=m), threads=1)
         alln = _child(CHILD.format(side=side, s=S, method=m))
         rows.append({
@@ -145,6 +159,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
             "cpu_ns_per_point_dir_1_thread": one["cpu"] * 1e9 / (side * side * S),
             "peak_rss_mb": alln["maxrss_mb"],
         })
+    side = 512 if not quick else 256
     mean_h, max_h = fcol._fcol.horizon_hull_stats(_terrain(side), 1.0, 1.0, S, 5)
     rows.append({"table": "hulls", "n": side * side, "mean_points_per_hull": mean_h, "max_points": max_h})
 
@@ -175,7 +190,7 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
         hs = fcol.horizon_map(zdem, extent=ext, geographic=True, earth_curvature=False, sectors=72, method="sweep")
         rec["fcol_sweep_mean"] = float(np.nanmean(hs.sky_view_factor()))
         if th is not None:
-            import topocalc.viewf as tv  # type: ignore[import-not-found]
+            import topocalc.viewf as tv  # type: ignore[import-not-found,import-untyped,unused-ignore]
 
             spacing = float(np.sqrt(abs(hm.spacing[0] * hm.spacing[1])))
             t0 = time.perf_counter()
