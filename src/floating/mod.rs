@@ -185,14 +185,21 @@ pub fn render_floating_column(
     if cam.perspective && shade_aa {
         // §6.4 for perspective views: the radial sweep once per sub-column
         // offset (each pass holds what a plain render holds), its colours
-        // averaged into one accumulator.
+        // averaged into one accumulator. The pass of sub-column m also
+        // shifts its rays to sub-row π(m), a permutation of the k sub-rows
+        // (an n-rooks pattern), so that the k samples cover both directions
+        // at the cost of k passes.
+        let q = rook_step(aa);
         let n = width * height;
         let mut acc = vec![[0.0f64; 4]; n];
         let bg = shade(&Pixel::default(), shading, false);
         for m in 0..aa {
             let off = (m as f64 + 0.5) / aa as f64 - 0.5;
-            let (px, st) =
-                with_threads(opts.threads, || radial::render_radial(&ctx, off, cancel))??;
+            let roff = ((m * q) % aa) as f64 + 0.5;
+            let roff = roff / aa as f64 - 0.5;
+            let (px, st) = with_threads(opts.threads, || {
+                radial::render_radial(&ctx, (roff, off), cancel)
+            })??;
             total.add(&st);
             let mut seen = vec![false; n];
             for (k, p) in &px {
@@ -216,14 +223,17 @@ pub fn render_floating_column(
         }
         let mut centre = Vec::new();
         if geom {
-            let (px, st) =
-                with_threads(opts.threads, || radial::render_radial(&ctx, 0.0, cancel))??;
+            let (px, st) = with_threads(opts.threads, || {
+                radial::render_radial(&ctx, (0.0, 0.0), cancel)
+            })??;
             total.add(&st);
             centre = px;
         }
         write_aa(&mut buf, &centre, &acc, shading);
     } else if cam.perspective {
-        let (px, st) = with_threads(opts.threads, || radial::render_radial(&ctx, 0.0, cancel))??;
+        let (px, st) = with_threads(opts.threads, || {
+            radial::render_radial(&ctx, (0.0, 0.0), cancel)
+        })??;
         total = st;
         write_list(&mut buf, &px, shading);
     } else {
@@ -347,6 +357,27 @@ fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading) {
             write_pixel(&mut b, *k, p, None, shading);
         }
     }
+}
+
+/// The step q of the sub-row permutation m ↦ q·m mod k of the perspective
+/// supersampling: coprime to k and near k/φ, so that consecutive sub-columns
+/// take far-apart sub-rows.
+fn rook_step(k: usize) -> usize {
+    fn gcd(a: usize, b: usize) -> usize {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
+    let target = k as f64 * 0.618_033_988_749_895;
+    (1..=k.max(1))
+        .filter(|&q| gcd(q, k) == 1)
+        .min_by(|&a, &b| {
+            let (da, db) = ((a as f64 - target).abs(), (b as f64 - target).abs());
+            da.total_cmp(&db).then(a.cmp(&b))
+        })
+        .unwrap_or(1)
 }
 
 /// Write a supersampled render: colour and intensity from `acc` (every
