@@ -630,7 +630,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
         for i in i0..=i1 {
             let x = i as f64;
             let q = &out[i as usize];
-            if (x >= lo && x <= hi) || q.set || q.cover > 0.0 || self.cov.contains(x) {
+            // Skip pixels set or reached before, and those this span sets
+            // itself (in [lo, hi], not yet covered: a sweep's first sample
+            // covers its own row without setting it).
+            if q.set || q.cover > 0.0 || (x >= lo && x <= hi && !self.cov.contains(x)) {
                 continue;
             }
             out[i as usize] = self.edge_pixel(a, b, x, topo, wall);
