@@ -219,6 +219,10 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
             let x = i as f64;
             let f = fine.overlap(x - 0.5, x + 0.5).min(1.0);
             p.cover = if p.set || p.cover > 0.0 { f } else { 0.0 };
+            if !p.set && p.cover > 0.0 && p.inten.is_nan() {
+                let (_, dir) = ctx.cam.ray(x, col);
+                p.inten = ctx.shading.intensity(p.n, -dir);
+            }
         }
     }
     sw.stats.sweep_evals = sw.sampler.evals;
@@ -611,6 +615,11 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// receive, from the first (nearest) such span, its shading there.
     fn edges(&mut self, a: &Sample, b: &Sample, wall: bool, lo: f64, hi: f64, out: &mut [Pixel]) {
         let (mut elo, mut ehi) = (lo, hi);
+        let fine = self.fine.as_ref().expect("coverage mode");
+        if fine.covers(self.clamp_row(lo - 0.5), self.clamp_row(hi + 0.5)) {
+            // Behind the front (the common case): nothing reaches out.
+            return;
+        }
         if !wall {
             let dt = b.t - a.t;
             let (hl, hh) = hermite_range(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt);
@@ -656,17 +665,16 @@ impl<'c, 'a> Sweep<'c, 'a> {
         } else {
             tau
         };
-        let n = a.n.lerp(b.n, wb).normalize_or(a.n);
-        let (_, dir) = ctx.cam.ray(x, self.col);
-        let inten = if wall && ctx.opts.corrections.walls {
+        // Shaded from its normal after the sweep (most of these pixels are
+        // set by the next span), unless intensities are interpolated.
+        let (n, inten) = if wall && ctx.opts.corrections.walls {
             let fr = &ctx.frame;
             let e = DVec3::new(fr.eh.x, fr.eh.y, 0.0);
-            ctx.shading
-                .intensity(if b.wr > a.wr { -e } else { e }, -dir)
+            (if b.wr > a.wr { -e } else { e }, f64::NAN)
         } else if ctx.opts.shading == ShadingMode::Normal {
-            ctx.shading.intensity(n, -dir)
+            (a.n.lerp(b.n, wb).normalize_or(a.n), f64::NAN)
         } else {
-            a.inten + wb * (b.inten - a.inten)
+            (DVec3::ZERO, a.inten + wb * (b.inten - a.inten))
         };
         Pixel {
             set: false,

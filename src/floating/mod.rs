@@ -291,7 +291,12 @@ pub fn render_floating_column(
                             for (k, (px, acc)) in done.iter().enumerate() {
                                 let a = if shade_aa {
                                     Some(acc[i])
-                                } else if cov {
+                                } else if cov
+                                    && px[i].cover > 0.0
+                                    && (px[i].cover < 1.0 || !px[i].set)
+                                {
+                                    // A partly covered pixel (the others are
+                                    // written as without coverage).
                                     Some(shade(&px[i], shading, true))
                                 } else {
                                     None
