@@ -27,6 +27,10 @@ pub struct Pixel {
     pub n: DVec3,
     pub uv: DVec2,
     pub inten: f64,
+    /// Covered fraction of the pixel's row extent (with `coverage` only;
+    /// an unset pixel with `cover` > 0 holds the side and intensity of the
+    /// silhouette that reaches into it).
+    pub cover: f64,
 }
 
 /// Counters of one column.
@@ -121,6 +125,13 @@ impl Coverage {
     pub(super) fn covers(&self, lo: f64, hi: f64) -> bool {
         self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)
     }
+    /// Covered length of [lo, hi].
+    pub(super) fn overlap(&self, lo: f64, hi: f64) -> f64 {
+        self.iv
+            .iter()
+            .map(|&(a, b)| (b.min(hi) - a.max(lo)).max(0.0))
+            .sum()
+    }
 }
 
 const MAX_STEPS: usize = 4_000_000;
@@ -139,6 +150,9 @@ struct Sweep<'c, 'a> {
     /// Batched look-ahead (vertical column planes only).
     ahead: Option<Box<Ahead>>,
     batch: Vec<Option<Raw>>,
+    /// With `coverage`: the covered rows at floating-point precision,
+    /// including the extrema between samples (§6.4).
+    fine: Option<Coverage>,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -167,6 +181,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         jobs: Vec::with_capacity(if ctx.refine { ctx.cam.height } else { 0 }),
         ahead: (line.kappa == 0.0).then(Box::default),
         batch: Vec::new(),
+        fine: ctx.opts.coverage.then(Coverage::default),
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
@@ -197,9 +212,55 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed.len() as u64;
     }
+    if let Some(fine) = &sw.fine {
+        // §6.4: each pixel's covered fraction of its row extent
+        // [i − ½, i + ½]; an uncovered one keeps its silhouette's shading.
+        for (i, p) in out.iter_mut().enumerate() {
+            let x = i as f64;
+            let f = fine.overlap(x - 0.5, x + 0.5).min(1.0);
+            p.cover = if p.set || p.cover > 0.0 { f } else { 0.0 };
+            if !p.set && p.cover > 0.0 && p.inten.is_nan() {
+                let (_, dir) = ctx.cam.ray(x, col);
+                p.inten = ctx.shading.intensity(p.n, -dir);
+            }
+        }
+    }
     sw.stats.sweep_evals = sw.sampler.evals;
     sw.stats.folds = sw.sampler.folds;
     sw.stats
+}
+
+/// Range of the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1
+/// over [0, 1] (its extrema in (0, 1) included).
+pub(crate) fn hermite_range(p0: f64, p1: f64, m0: f64, m1: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (p0.min(p1), p0.max(p1));
+    if !(m0.is_finite() && m1.is_finite()) {
+        return (lo, hi);
+    }
+    let a = 2.0 * (p0 - p1) + m0 + m1;
+    let b = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
+    let c = m0;
+    let mut at = |x: f64| {
+        if x > 0.0 && x < 1.0 {
+            let p = ((a * x + b) * x + c) * x + p0;
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    };
+    // p'(x) = 3a x² + 2b x + c.
+    if a.abs() < 1e-300 {
+        if b != 0.0 {
+            at(-c / (2.0 * b));
+        }
+    } else {
+        let disc = b * b - 3.0 * a * c;
+        if disc >= 0.0 {
+            let sq = disc.sqrt();
+            at((-b + sq) / (3.0 * a));
+            at((-b - sq) / (3.0 * a));
+        }
+    }
+    (lo, hi)
 }
 
 impl<'c, 'a> Sweep<'c, 'a> {
@@ -477,6 +538,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let r = self.clamp_row(a.rho);
         if !self.cov.contains(r) {
             self.cov.add(r, r);
+            if let Some(f) = self.fine.as_mut() {
+                f.add(r, r);
+            }
         }
     }
 
@@ -519,6 +583,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let ra = self.clamp_row(a.rho);
         let rb = self.clamp_row(b.rho);
         let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+        if self.fine.is_some() {
+            self.edges(a, b, wall, lo, hi, out);
+        }
         if self.cov.covers(lo, hi) {
             // Nothing newly revealed (the common case behind the front).
             return;
@@ -538,6 +605,85 @@ impl<'c, 'a> Sweep<'c, 'a> {
             }
         }
         self.cov.add(lo, hi);
+    }
+
+    /// §6.4 sub-pixel coverage of the span from a to b (rows lo..hi): the
+    /// span's rows at floating-point precision, extended to the extremum of
+    /// the cubic through the two samples' rows and slopes (the silhouette
+    /// between samples, at most half a pixel beyond them), are added to the
+    /// fine coverage; pixels it reaches into without covering their centre
+    /// receive, from the first (nearest) such span, its shading there.
+    fn edges(&mut self, a: &Sample, b: &Sample, wall: bool, lo: f64, hi: f64, out: &mut [Pixel]) {
+        let (mut elo, mut ehi) = (lo, hi);
+        let fine = self.fine.as_ref().expect("coverage mode");
+        if fine.covers(self.clamp_row(lo - 0.5), self.clamp_row(hi + 0.5)) {
+            // Behind the front (the common case): nothing reaches out.
+            return;
+        }
+        if !wall {
+            let dt = b.t - a.t;
+            let (hl, hh) = hermite_range(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt);
+            elo = self.clamp_row(hl.max(lo - 0.5));
+            ehi = self.clamp_row(hh.min(hi + 0.5));
+        }
+        let fine = self.fine.as_mut().expect("coverage mode");
+        if fine.covers(elo, ehi) {
+            return;
+        }
+        fine.add(elo, ehi);
+        let i0 = ((elo - 0.5).floor() + 1.0).max(0.0) as i64;
+        let i1 = ((ehi + 0.5).ceil() - 1.0).min(self.h as f64 - 1.0) as i64;
+        let fr = self.ctx.frame;
+        let upward = b.rho < a.rho;
+        let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };
+        for i in i0..=i1 {
+            let x = i as f64;
+            let q = &out[i as usize];
+            // Skip pixels set or reached before, and those this span sets
+            // itself (in [lo, hi], not yet covered: a sweep's first sample
+            // covers its own row without setting it).
+            if q.set || q.cover > 0.0 || (x >= lo && x <= hi && !self.cov.contains(x)) {
+                continue;
+            }
+            out[i as usize] = self.edge_pixel(a, b, x, topo, wall);
+        }
+    }
+
+    /// The shading of the span from a to b at its end nearest to row x,
+    /// for a pixel whose centre it does not cover (no exact solve).
+    fn edge_pixel(&self, a: &Sample, b: &Sample, x: f64, topo: i8, wall: bool) -> Pixel {
+        let ctx = self.ctx;
+        let dr = b.rho - a.rho;
+        let tau = if dr != 0.0 {
+            ((x - a.rho) / dr).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let wb = if ctx.frame.persp {
+            let iz = (1.0 - tau) / a.z + tau / b.z;
+            tau / b.z / iz
+        } else {
+            tau
+        };
+        // Shaded from its normal after the sweep (most of these pixels are
+        // set by the next span), unless intensities are interpolated.
+        let (n, inten) = if wall && ctx.opts.corrections.walls {
+            let fr = &ctx.frame;
+            let e = DVec3::new(fr.eh.x, fr.eh.y, 0.0);
+            (if b.wr > a.wr { -e } else { e }, f64::NAN)
+        } else if ctx.opts.shading == ShadingMode::Normal {
+            (a.n.lerp(b.n, wb).normalize_or(a.n), f64::NAN)
+        } else {
+            (DVec3::ZERO, a.inten + wb * (b.inten - a.inten))
+        };
+        Pixel {
+            set: false,
+            side: topo,
+            n,
+            inten,
+            cover: 1.0,
+            ..Pixel::default()
+        }
     }
 
     fn pixel(&mut self, a: &Sample, b: &Sample, i: usize, topo: i8, wall: bool) -> Pixel {
@@ -566,6 +712,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             n,
             uv,
             inten,
+            cover: 1.0,
         };
         let (o, dir) = self.ctx.cam.ray(row, self.col);
         let mut queued = false;

@@ -52,6 +52,10 @@ pub struct FloatingOptions {
     pub corrections: Corrections,
     /// Column supersampling factor for `rgb` and `intensity` (§6.4).
     pub antialias: usize,
+    /// Sub-pixel coverage of `rgb` and `intensity` in the column direction
+    /// (§6.4): a pixel crossed by a silhouette is blended with the
+    /// background by the covered fraction of its row extent.
+    pub coverage: bool,
     /// Floating horizon: number of sampling planes (lines).
     pub planes: usize,
     /// Worker threads (None: rayon's default pool).
@@ -69,6 +73,7 @@ impl Default for FloatingOptions {
             refine_iters: 8,
             corrections: Corrections::default(),
             antialias: 1,
+            coverage: false,
             planes: 80,
             threads: None,
         }
@@ -150,10 +155,10 @@ pub fn render_floating_column(
         ));
     }
     let cam = Camera::new(view, width, height)?;
-    if cam.perspective && opts.antialias > 1 {
+    if cam.perspective && opts.coverage {
         return Err(FcolError::value(
-            "antialias",
-            "column supersampling applies to orthographic views; render a larger perspective image and downsample",
+            "coverage",
+            "sub-pixel coverage applies to orthographic views; use antialias=k for perspective views",
         ));
     }
     let frame = sampling::Frame::new(&cam, field.domain());
@@ -174,10 +179,61 @@ pub fn render_floating_column(
     let mut buf = Buffers::new(width, height, outputs, shading.background);
     let aa = opts.antialias;
     let shade_aa = aa > 1 && outputs.needs_shading();
+    let cov = opts.coverage;
     let geom = outputs.depth || outputs.normal || outputs.uv || outputs.side || outputs.mask;
     let mut total = ColumnStats::default();
-    if cam.perspective {
-        let (px, st) = with_threads(opts.threads, || radial::render_radial(&ctx, cancel))??;
+    if cam.perspective && shade_aa {
+        // §6.4 for perspective views: the radial sweep once per sub-column
+        // offset (each pass holds what a plain render holds), its colours
+        // averaged into one accumulator. The pass of sub-column m also
+        // shifts its rays to sub-row π(m), a permutation of the k sub-rows
+        // (an n-rooks pattern), so that the k samples cover both directions
+        // at the cost of k passes.
+        let q = rook_step(aa);
+        let n = width * height;
+        let mut acc = vec![[0.0f64; 4]; n];
+        let bg = shade(&Pixel::default(), shading, false);
+        for m in 0..aa {
+            let off = (m as f64 + 0.5) / aa as f64 - 0.5;
+            let roff = ((m * q) % aa) as f64 + 0.5;
+            let roff = roff / aa as f64 - 0.5;
+            let (px, st) = with_threads(opts.threads, || {
+                radial::render_radial(&ctx, (roff, off), cancel)
+            })??;
+            total.add(&st);
+            let mut seen = vec![false; n];
+            for (k, p) in &px {
+                seen[*k] = true;
+                let c = shade(p, shading, false);
+                let a = &mut acc[*k];
+                for c2 in 0..3 {
+                    a[c2] += c[c2] / aa as f64;
+                }
+                if c[3].is_finite() {
+                    a[3] += c[3] / aa as f64;
+                }
+            }
+            for (a, s) in acc.iter_mut().zip(&seen) {
+                if !s {
+                    for c2 in 0..3 {
+                        a[c2] += bg[c2] / aa as f64;
+                    }
+                }
+            }
+        }
+        let mut centre = Vec::new();
+        if geom {
+            let (px, st) = with_threads(opts.threads, || {
+                radial::render_radial(&ctx, (0.0, 0.0), cancel)
+            })??;
+            total.add(&st);
+            centre = px;
+        }
+        write_aa(&mut buf, &centre, &acc, shading);
+    } else if cam.perspective {
+        let (px, st) = with_threads(opts.threads, || {
+            radial::render_radial(&ctx, (0.0, 0.0), cancel)
+        })??;
         total = st;
         write_list(&mut buf, &px, shading);
     } else {
@@ -204,13 +260,7 @@ pub fn render_floating_column(
                                 sub.iter_mut().for_each(|p| *p = Pixel::default());
                                 st.add(&column::render_column(&ctx, j as f64 + off, &mut sub));
                                 for (a, p) in acc.iter_mut().zip(&sub) {
-                                    let c = if p.set {
-                                        let c = shading.colour(p.inten, p.side);
-                                        [c[0] as f64, c[1] as f64, c[2] as f64, p.inten]
-                                    } else {
-                                        let b = shading.background;
-                                        [b[0] as f64, b[1] as f64, b[2] as f64, f64::NAN]
-                                    };
+                                    let c = shade(p, shading, cov);
                                     for k in 0..3 {
                                         a[k] += c[k] / aa as f64;
                                     }
@@ -239,7 +289,18 @@ pub fn render_floating_column(
                     .for_each(|mut b| {
                         for i in b.i0..b.i1 {
                             for (k, (px, acc)) in done.iter().enumerate() {
-                                let a = if shade_aa { Some(acc[i]) } else { None };
+                                let a = if shade_aa {
+                                    Some(acc[i])
+                                } else if cov
+                                    && px[i].cover > 0.0
+                                    && (px[i].cover < 1.0 || !px[i].set)
+                                {
+                                    // A partly covered pixel (the others are
+                                    // written as without coverage).
+                                    Some(shade(&px[i], shading, true))
+                                } else {
+                                    None
+                                };
                                 let at = (i - b.i0) * width + j0 + k;
                                 write_pixel(&mut b, at, &px[i], a, shading);
                             }
@@ -261,6 +322,37 @@ pub fn render_floating_column(
     Ok(buf)
 }
 
+/// Colour (r, g, b) and intensity of a pixel; NaN intensity when the
+/// surface is not seen. With `coverage`, blended with the background by the
+/// pixel's covered fraction (intensity: times the fraction, the background
+/// counting as 0, as the column supersampling's average does).
+#[inline]
+fn shade(p: &Pixel, shading: &Shading, coverage: bool) -> [f64; 4] {
+    let b = shading.background;
+    let bg = [b[0] as f64, b[1] as f64, b[2] as f64, f64::NAN];
+    let f = if !coverage {
+        if p.set {
+            1.0
+        } else {
+            0.0
+        }
+    } else if p.set || p.cover > 0.0 {
+        p.cover
+    } else {
+        0.0
+    };
+    if f <= 0.0 {
+        return bg;
+    }
+    let c = shading.colour(p.inten, p.side);
+    let mut out = [0.0; 4];
+    for k in 0..3 {
+        out[k] = f * c[k] as f64 + (1.0 - f) * bg[k];
+    }
+    out[3] = f * p.inten;
+    out
+}
+
 /// Write the listed pixels (row-major index, pixel); the others keep their
 /// background.
 fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading) {
@@ -268,6 +360,42 @@ fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading) {
     for mut b in split_rows(buf, h) {
         for (k, p) in px {
             write_pixel(&mut b, *k, p, None, shading);
+        }
+    }
+}
+
+/// The step q of the sub-row permutation m ↦ q·m mod k of the perspective
+/// supersampling: coprime to k and near k/φ, so that consecutive sub-columns
+/// take far-apart sub-rows.
+fn rook_step(k: usize) -> usize {
+    fn gcd(a: usize, b: usize) -> usize {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
+    let target = k as f64 * 0.618_033_988_749_895;
+    (1..=k.max(1))
+        .filter(|&q| gcd(q, k) == 1)
+        .min_by(|&a, &b| {
+            let (da, db) = ((a as f64 - target).abs(), (b as f64 - target).abs());
+            da.total_cmp(&db).then(a.cmp(&b))
+        })
+        .unwrap_or(1)
+}
+
+/// Write a supersampled render: colour and intensity from `acc` (every
+/// pixel), the other buffers from the listed centre pixels.
+fn write_aa(buf: &mut Buffers, centre: &[(usize, Pixel)], acc: &[[f64; 4]], shading: &Shading) {
+    let h = buf.height.max(1);
+    let mut px = vec![Pixel::default(); acc.len()];
+    for (k, p) in centre {
+        px[*k] = *p;
+    }
+    for mut b in split_rows(buf, h) {
+        for (k, a) in acc.iter().enumerate() {
+            write_pixel(&mut b, k, &px[k], Some(*a), shading);
         }
     }
 }

@@ -39,8 +39,15 @@ struct Ray {
 }
 
 /// Render a perspective view: the pixels where the surface is seen (each
-/// once, as (row-major index, pixel)) and the counters.
-pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<(usize, Pixel)>, ColumnStats)> {
+/// once, as (row-major index, pixel)) and the counters. Pixel (i, j) is
+/// sampled on the ray through (row i + `off`.0, column j + `off`.1): (0, 0)
+/// is the pixel centre, offsets in (−½, ½) are the sub-pixel positions of
+/// the §6.4 supersampling.
+pub fn render_radial(
+    ctx: &Ctx<'_>,
+    off: (f64, f64),
+    cancel: &Cancel,
+) -> Result<(Vec<(usize, Pixel)>, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -87,7 +94,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<(usize, Pixe
         .into_par_iter()
         .flat_map_iter(|i| {
             (0..w).map(move |j| {
-                let (_, dir) = cam.ray(i as f64, j as f64);
+                let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
                 let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
                 (bin_of(dir) as u32, fast_atan2(dir.z, hl))
             })
@@ -120,6 +127,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<(usize, Pixe
             bin.sort_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
             let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
             let mut sw = RadialSweep::new(ctx, phi, &bin);
+            sw.off = off;
             sw.ppr = bin_ppr(cam, phi, bin[0].theta, bin[bin.len() - 1].theta);
             sw.run();
             sw.solve();
@@ -145,7 +153,7 @@ pub fn render_radial(ctx: &Ctx<'_>, cancel: &Cancel) -> Result<(Vec<(usize, Pixe
             all.extend(px);
         }
     }
-    fill_holes(ctx, &mut set, &mut depth, &mut all, &mut stats);
+    fill_holes(ctx, off, &mut set, &mut depth, &mut all, &mut stats);
     Ok((all, stats))
 }
 
@@ -182,6 +190,7 @@ fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
 /// their own ray, between the neighbours' hits.
 fn fill_holes(
     ctx: &Ctx<'_>,
+    off: (f64, f64),
     set: &mut [bool],
     depth: &mut [f64],
     px: &mut Vec<(usize, Pixel)>,
@@ -204,7 +213,7 @@ fn fill_holes(
             if !(vertical || lateral) {
                 continue;
             }
-            let (_, dir) = cam.ray(i as f64, j as f64);
+            let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
             let pairs = [
                 (i > 0 && i + 1 < h).then(|| ((i - 1) * w + j, (i + 1) * w + j)),
                 (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
@@ -231,6 +240,7 @@ fn fill_holes(
                         n: hs.normal(),
                         uv: DVec2::new(q.x, q.y),
                         inten: 0.0,
+                        cover: 1.0,
                     };
                     let z = p.depth;
                     super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), &hs);
@@ -314,6 +324,8 @@ struct RadialSweep<'c, 'a> {
     batch: Vec<Option<Raw>>,
     /// Where the last span's rays started (in `rays`).
     cursor: usize,
+    /// Row and column offsets of the rays (see [`render_radial`]).
+    off: (f64, f64),
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -332,6 +344,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ahead: Ahead::default(),
             batch: Vec::new(),
             cursor: 0,
+            off: (0.0, 0.0),
         }
     }
 
@@ -651,7 +664,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let ray = self.rays[k];
                 let w = self.ctx.cam.width;
                 let (i, j) = (ray.k as usize / w, ray.k as usize % w);
-                let (_, dir) = self.ctx.cam.ray(i as f64, j as f64);
+                let (_, dir) = self
+                    .ctx
+                    .cam
+                    .ray(i as f64 + self.off.0, j as f64 + self.off.1);
                 let px = self.pixel(a, b, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }
@@ -686,6 +702,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             n: n_i,
             uv: DVec2::new(q0.x, q0.y),
             inten: a.inten + tau * (b.inten - a.inten),
+            cover: 1.0,
         };
         let queued = ctx.refine && !wall;
         if queued {

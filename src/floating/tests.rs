@@ -413,3 +413,55 @@ fn batched_look_ahead_samples_equal_point_samples() {
         );
     }
 }
+
+/// §6.4 coverage of a flat square seen from above: its rows span
+/// 2 ± 2·sin α in a 5-row image, so the first and last rows are covered by
+/// ½ − 2(1 − sin α) (½ when the edges fall on those rows' centres, α = 90°,
+/// where the sweep's first sample lies on a pixel centre).
+#[test]
+fn coverage_of_a_flat_square() {
+    let f = FnHeight {
+        domain: Domain::new(-0.5, 0.5, -0.5, 0.5).unwrap(),
+        f: |_u: f64, _v: f64| [0.0, 0.0, 0.0],
+    };
+    for el in [90.0f64, 80.0, 70.0] {
+        let cam = Camera::new(&ortho(el, 0.0, 1.25), 4, 5).unwrap();
+        let frame = sampling::Frame::new(&cam, f.domain());
+        let sh = Shading::default();
+        let opts = FloatingOptions {
+            coverage: true,
+            ..Default::default()
+        };
+        let ctx = Ctx {
+            cam: &cam,
+            frame,
+            field: &f,
+            shading: &sh,
+            opts: &opts,
+            refine: false,
+        };
+        let end = 0.5 - 2.0 * (1.0 - el.to_radians().sin());
+        for j in 0..4 {
+            let mut out = vec![Pixel::default(); 5];
+            column::render_column(&ctx, j as f64, &mut out);
+            let got: Vec<f64> = out.iter().map(|p| p.cover).collect();
+            let want = [end, 1.0, 1.0, 1.0, end];
+            for (g, w) in got.iter().zip(want) {
+                assert!(
+                    (g - w).abs() < 1e-6,
+                    "α = {el}, column {j}: {got:?} vs {want:?}"
+                );
+            }
+        }
+    }
+}
+
+/// The range of a Hermite cubic includes its interior extremum: the
+/// parabola-like arc through rows 0 and 0 with slopes ±1 peaks at ¼.
+#[test]
+fn hermite_range_finds_the_extremum() {
+    let (lo, hi) = column::hermite_range(0.0, 0.0, 1.0, -1.0);
+    assert!(lo == 0.0 && (hi - 0.25).abs() < 1e-12, "{lo} {hi}");
+    let (lo, hi) = column::hermite_range(1.0, 3.0, 2.0, 2.0);
+    assert!(lo == 1.0 && hi == 3.0, "{lo} {hi}");
+}

@@ -81,6 +81,9 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
     if let Some(v) = o.take("antialias")? {
         f.antialias = v;
     }
+    if let Some(v) = o.take("coverage")? {
+        f.coverage = v;
+    }
     if method == "floating_horizon" {
         if let Some(v) = o.take("planes")? {
             f.planes = v;
@@ -104,8 +107,17 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 /// * `ridges`, `bumps`, `jumps` (False): §5 detections; `correction`
 ///   ("supersample" or "spline"), `rate` (8), `threshold` (0.0625);
 ///   `walls` (True): shade steps as walls (§5.1);
-/// * `antialias` (1): column supersampling of rgb/intensity (§6.4,
-///   orthographic views);
+/// * `antialias` (1): column supersampling of rgb/intensity (§6.4): k
+///   sub-columns per pixel column, averaged (perspective views: k passes
+///   of the radial sweep at sub-column offsets);
+/// * `coverage` (False, orthographic views): sub-pixel coverage of
+///   rgb/intensity in the column direction (§6.4): a pixel crossed by a
+///   silhouette (a span's outer end against the background, the domain
+///   edge or a hole, at floating-point rows, with the extremum between
+///   samples) is blended with the background by the covered fraction of
+///   its row extent; intensity is the surface's times that fraction (NaN
+///   where nothing is covered). depth/normal/uv/side/mask stay per pixel
+///   centre. With `antialias` it gives both directions;
 /// * `planes` (80, floating_horizon): number of sampling planes;
 /// * `threads`: worker threads (default: all); output is identical for any;
 /// * `texture` (floating_column): an (H, W) array over the surface's

@@ -9,7 +9,9 @@ floor); the mesh at 50² … 800² with its errors, ``mesh_over_fcol`` (cast
 only, mesh prebuilt) and ``mesh_new_over_fcol`` (tessellate + build + cast:
 a new function) against the default column; the default column with 1 and
 2 rayon workers (``RAYON_NUM_THREADS`` in child processes); nanoseconds per
-pixel at both sizes; the seed's Table 1 sample counts beside ours.
+pixel at both sizes; the seed's Table 1 sample counts beside ours; the §6.4
+anti-aliasing variants (``antialias=4``, ``coverage``, both) beside the
+plain rgb render (``x_plain``).
 
 Every other timing runs in this one process, on the same inputs, one after
 the other; the ratios are what to read (the machines are shared and noisy).
@@ -195,6 +197,28 @@ def _child_time(view: str, w: int, h: int, threads: int, repeat: int) -> float:
     return float(json.loads(out.strip().splitlines()[-1])["seconds"])
 
 
+AA_VARIANTS = {
+    "column rgb, antialias=4": dict(antialias=4),
+    "column rgb, coverage": dict(coverage=True),
+    "column rgb, antialias=4 + coverage": dict(antialias=4, coverage=True),
+}
+
+
+def aa_timings(surf, view, vname: str, w: int, h: int, repeat: int) -> list[dict]:
+    """The §6.4 anti-aliasing variants (rgb only) and the plain rgb render,
+    timed one after the other; ``x_plain`` = time / plain time. ``coverage``
+    is orthographic only (perspective rows are skipped)."""
+    persp = view.projection == "perspective"
+    plain = median_time(lambda: fcol.render(surf, view, w, h), repeat=repeat)
+    rows = [dict(method="column rgb, plain", view=vname, size=f"{w}x{h}", ms=1e3 * plain, x_plain=1.0)]
+    for label, opts in AA_VARIANTS.items():
+        if persp and opts.get("coverage"):
+            continue
+        t = median_time(lambda: fcol.render(surf, view, w, h, **opts), repeat=repeat)
+        rows.append(dict(method=label, view=vname, size=f"{w}x{h}", ms=1e3 * t, x_plain=t / plain))
+    return rows
+
+
 def run(out_dir: Path, quick: bool) -> list[dict]:
     from fcol.testing.reference import compare, height_reference
 
@@ -234,6 +258,9 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 if not opts:
                     default[(vname, w, h)] = t
                 rows.append(row)
+            # §6.4 anti-aliasing (rgb only), timed beside the plain render.
+            aa_rows = aa_timings(surf, view, vname, w, h, repeat)
+            rows.extend(aa_rows)
             # Floating horizon (lines only: time and samples).
             hz = dict(method="floating_horizon", outputs=("lines",))
             img = fcol.render(surf, view, w, h, **hz)

@@ -50,8 +50,10 @@ def gallery(out_dir: Path) -> list[dict]:
         ("floating_default_ortho.png", surf, ortho, dict(),
          "fcol default: samples ≤ 1 px apart, every pixel exact, Phong"),
         ("floating_default_bird.png", wide, bird, dict(), "fcol default, perspective bird's eye"),
-        ("floating_default_ortho_aa4.png", surf, ortho, dict(antialias=4),
-         "fcol default with 4× column supersampling (§6.4)"),
+        ("floating_default_ortho_aa4.png", surf, ortho, dict(antialias=4, coverage=True),
+         "fcol default, anti-aliased (§6.4): 4 sub-columns × sub-pixel silhouette coverage along the column"),
+        ("floating_default_bird_aa4.png", wide, bird, dict(antialias=4),
+         "fcol default, perspective, anti-aliased (§6.4): 4 passes on n-rooks sub-pixel rays"),
     ]
     rows = []
     for name, s, view, kw in [(a, b, c, d) for a, b, c, d, _ in shots]:
