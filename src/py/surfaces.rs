@@ -1610,6 +1610,20 @@ fn _eval_height<'py>(
     ))
 }
 
+/// Median nanoseconds per point (of `n`) of `run` over `repeat` timed runs
+/// after one warm-up run.
+fn median_ns_per_point(repeat: usize, n: usize, mut run: impl FnMut()) -> f64 {
+    let mut times = Vec::new();
+    for _ in 0..repeat.max(1) + 1 {
+        let t0 = std::time::Instant::now();
+        run();
+        times.push(t0.elapsed().as_secs_f64() * 1e9 / n.max(1) as f64);
+    }
+    times.remove(0); // warm-up
+    times.sort_by(|a, b| a.total_cmp(b));
+    times[times.len() / 2]
+}
+
 /// Benchmark hook: median nanoseconds per point of evaluating a height
 /// surface on one thread with the GIL released. `mode`: "batch" (f, f_u,
 /// f_v by `eval_batch`), "point" (the same, one `eval` per point), "value"
@@ -1624,19 +1638,15 @@ fn _time_height(
     mode: &str,
     repeat: usize,
 ) -> PyResult<f64> {
-    use std::time::Instant;
     let h = height_field_from_py(surface)?;
     let (_, u, v) = broadcast_uv(py, u, v)?;
-    let n = u.len().max(1);
     if !matches!(mode, "batch" | "point" | "value") {
         return Err(FcolError::value("mode", "must be \"batch\", \"point\" or \"value\"").into());
     }
     run::detached(py, || {
         let mut s = vec![HeightSample::default(); u.len()];
         let mut w = vec![0.0; u.len()];
-        let mut times = Vec::new();
-        for _ in 0..repeat.max(1) + 1 {
-            let t0 = Instant::now();
+        Ok(median_ns_per_point(repeat, u.len(), || {
             match mode {
                 "batch" => h.eval_batch(&u, &v, &mut s),
                 "value" => h.eval_value_batch(&u, &v, &mut w),
@@ -1646,13 +1656,9 @@ fn _time_height(
                     }
                 }
             }
-            times.push(t0.elapsed().as_secs_f64() * 1e9 / n as f64);
             std::hint::black_box(&s);
             std::hint::black_box(&w);
-        }
-        times.remove(0); // warm-up
-        times.sort_by(|a, b| a.total_cmp(b));
-        Ok(times[times.len() / 2])
+        }))
     })
 }
 
@@ -1670,18 +1676,14 @@ fn _time_parametric(
     mode: &str,
     repeat: usize,
 ) -> PyResult<f64> {
-    use std::time::Instant;
     let p = parametric_from_py(surface)?;
     let (_, u, v) = broadcast_uv(py, u, v)?;
-    let n = u.len().max(1);
     if !matches!(mode, "second" | "first" | "point") {
         return Err(FcolError::value("mode", "must be \"second\", \"first\" or \"point\"").into());
     }
     run::detached(py, || {
         let mut s = vec![ParamSample::default(); u.len()];
-        let mut times = Vec::new();
-        for _ in 0..repeat.max(1) + 1 {
-            let t0 = Instant::now();
+        Ok(median_ns_per_point(repeat, u.len(), || {
             match mode {
                 "second" => p.eval_batch(&u, &v, &mut s),
                 "first" => p.eval_first_batch(&u, &v, &mut s),
@@ -1691,12 +1693,8 @@ fn _time_parametric(
                     }
                 }
             }
-            times.push(t0.elapsed().as_secs_f64() * 1e9 / n as f64);
             std::hint::black_box(&s);
-        }
-        times.remove(0);
-        times.sort_by(|a, b| a.total_cmp(b));
-        Ok(times[times.len() / 2])
+        }))
     })
 }
 
