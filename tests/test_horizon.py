@@ -63,52 +63,59 @@ def numpy_brute(z: np.ndarray, s: int, du: float = 1.0, dv: float = 1.0) -> np.n
     return out.reshape(s, h, w)
 
 
-def numpy_cms(z: np.ndarray, s: int, du: float, dv: float) -> np.ndarray:
-    """Centre-line sampler: crossings with column and row lines, linear
-    interpolation between the two samples bordering each crossing."""
+def per_point_map(z: np.ndarray, s: int, value) -> np.ndarray:
+    """The (s, h, w) map of ``value(rx, ry, i0, j0)`` (None: −π/2) for every
+    sector (centre direction (rx, ry)) and point with data; NaN elsewhere."""
     h, w = z.shape
     out = np.full((s, h, w), -np.pi / 2)
     for i in range(s):
         g = TAU * (i + 0.5) / s
         rx, ry = math.cos(g), math.sin(g)
-        gc, gr = rx / du, ry / dv
         for i0 in range(h):
             for j0 in range(w):
-                zp = z[i0, j0]
-                if not np.isfinite(zp):
+                if not np.isfinite(z[i0, j0]):
                     out[i, i0, j0] = np.nan
                     continue
-                best = []
-                if gc != 0:
-                    k = np.arange(1, w + 1)
-                    j = j0 + k * np.sign(gc)
-                    rho = i0 + k * (gr / abs(gc))
-                    good = (j >= 0) & (j < w) & (rho >= 0) & (rho <= h - 1)
-                    stop = np.argmin(good) if not good.all() else len(good)
-                    k, j, rho = k[:stop], j[:stop].astype(int), rho[:stop]
-                    r0 = np.floor(rho).astype(int)
-                    fr = rho - r0
-                    r1 = np.minimum(r0 + 1, h - 1)
-                    hh = np.where(fr == 0, z[r0, j], z[r0, j] * (1 - fr) + z[r1, j] * fr)
-                    t = k / abs(gc)
-                    best.append(np.arctan2(hh - zp, t)[np.isfinite(hh)])
-                if gr != 0:
-                    k = np.arange(1, h + 1)
-                    ir = i0 + k * np.sign(gr)
-                    kap = j0 + k * (gc / abs(gr))
-                    good = (ir >= 0) & (ir < h) & (kap >= 0) & (kap <= w - 1)
-                    stop = np.argmin(good) if not good.all() else len(good)
-                    k, ir, kap = k[:stop], ir[:stop].astype(int), kap[:stop]
-                    c0 = np.floor(kap).astype(int)
-                    fc = kap - c0
-                    c1 = np.minimum(c0 + 1, w - 1)
-                    hh = np.where(fc == 0, z[ir, c0], z[ir, c0] * (1 - fc) + z[ir, c1] * fc)
-                    t = k / abs(gr)
-                    best.append(np.arctan2(hh - zp, t)[np.isfinite(hh)])
-                b = np.concatenate(best) if best else np.array([])
-                if b.size:
-                    out[i, i0, j0] = b.max()
+                e = value(rx, ry, i0, j0)
+                if e is not None:
+                    out[i, i0, j0] = e
     return out
+
+
+def column_crossings(z: np.ndarray, i0: int, j0: int, gc: float, gr: float) -> np.ndarray:
+    """Elevations seen from (i0, j0) where the line stepping gc columns and
+    gr rows per unit distance crosses the column lines of z (linear
+    interpolation between the two samples bordering each crossing)."""
+    h, w = z.shape
+    if gc == 0:
+        return np.array([])
+    k = np.arange(1, w + 1)
+    j = j0 + k * np.sign(gc)
+    rho = i0 + k * (gr / abs(gc))
+    good = (j >= 0) & (j < w) & (rho >= 0) & (rho <= h - 1)
+    stop = np.argmin(good) if not good.all() else len(good)
+    k, j, rho = k[:stop], j[:stop].astype(int), rho[:stop]
+    r0 = np.floor(rho).astype(int)
+    fr = rho - r0
+    r1 = np.minimum(r0 + 1, h - 1)
+    hh = np.where(fr == 0, z[r0, j], z[r0, j] * (1 - fr) + z[r1, j] * fr)
+    t = k / abs(gc)
+    return np.arctan2(hh - z[i0, j0], t)[np.isfinite(hh)]
+
+
+def numpy_cms(z: np.ndarray, s: int, du: float, dv: float) -> np.ndarray:
+    """Centre-line sampler: crossings with column and row lines (the column
+    lines of z.T), linear interpolation between the two samples bordering
+    each crossing."""
+
+    def value(rx: float, ry: float, i0: int, j0: int) -> float | None:
+        gc, gr = rx / du, ry / dv
+        b = np.concatenate(
+            [column_crossings(z, i0, j0, gc, gr), column_crossings(z.T, j0, i0, gr, gc)]
+        )
+        return b.max() if b.size else None
+
+    return per_point_map(z, s, value)
 
 
 def rust_round(x: np.ndarray) -> np.ndarray:
@@ -120,39 +127,32 @@ def numpy_sweep(z: np.ndarray, s: int, du: float, dv: float) -> np.ndarray:
     digital line (c + round(m·j), j) (or rows and columns swapped) ahead of
     each cell, at their distances w = (u, v)·r."""
     h, w = z.shape
-    out = np.full((s, h, w), -np.pi / 2)
-    for i in range(s):
-        g = TAU * (i + 0.5) / s
-        rx, ry = math.cos(g), math.sin(g)
+
+    def value(rx: float, ry: float, i0: int, j0: int) -> float | None:
         gc, gr = rx / du, ry / dv
-        col_major = abs(gc) >= abs(gr)
-        for i0 in range(h):
-            for j0 in range(w):
-                zp = z[i0, j0]
-                if not np.isfinite(zp):
-                    out[i, i0, j0] = np.nan
-                    continue
-                if col_major:
-                    m = gr / gc
-                    line = i0 - rust_round(np.array(m * j0))
-                    jj = np.arange(w)
-                    rr = (line + rust_round(m * jj)).astype(int)
-                    ahead = (jj > j0) if gc > 0 else (jj < j0)
-                    cc = jj
-                else:
-                    m = gc / gr
-                    line = j0 - rust_round(np.array(m * i0))
-                    rr = np.arange(h)
-                    cc = (line + rust_round(m * rr)).astype(int)
-                    ahead = (rr > i0) if gr > 0 else (rr < i0)
-                sel = ahead & (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-                rr, cc = rr[sel], cc[sel]
-                hq = z[rr, cc]
-                ok = np.isfinite(hq)
-                if ok.any():
-                    t = (cc[ok] - j0) * du * rx + (rr[ok] - i0) * dv * ry
-                    out[i, i0, j0] = np.max(np.arctan(((hq[ok] - zp) / t)))
-    return out
+        if abs(gc) >= abs(gr):
+            m = gr / gc
+            line = i0 - rust_round(np.array(m * j0))
+            jj = np.arange(w)
+            rr = (line + rust_round(m * jj)).astype(int)
+            ahead = (jj > j0) if gc > 0 else (jj < j0)
+            cc = jj
+        else:
+            m = gc / gr
+            line = j0 - rust_round(np.array(m * i0))
+            rr = np.arange(h)
+            cc = (line + rust_round(m * rr)).astype(int)
+            ahead = (rr > i0) if gr > 0 else (rr < i0)
+        sel = ahead & (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+        rr, cc = rr[sel], cc[sel]
+        hq = z[rr, cc]
+        ok = np.isfinite(hq)
+        if not ok.any():
+            return None
+        t = (cc[ok] - j0) * du * rx + (rr[ok] - i0) * dv * ry
+        return np.max(np.arctan(((hq[ok] - z[i0, j0]) / t)))
+
+    return per_point_map(z, s, value)
 
 
 # ---------------------------------------------------------------- exactness
@@ -275,24 +275,26 @@ def test_nan_is_never_a_source() -> None:
         assert np.isnan(a[:, 10, 10]).all()
 
 
-def test_cms_matches_numpy_centre_line_sampler() -> None:
-    rng = np.random.default_rng(4)
-    z = rng.random((17, 21)) * 5
-    z[4, 6] = np.nan
-    for s, (du, dv) in ((8, (1.0, 1.0)), (12, (1.5, -0.7))):
-        got = fcol.horizon_map(z, (du, dv), sectors=s, method="cms").elevation
-        ref = numpy_cms(z, s, du, dv)
-        np.testing.assert_allclose(got, ref.astype(np.float32), rtol=0, atol=3e-7)
-
-
-def test_sweep_matches_line_model() -> None:
-    rng = np.random.default_rng(6)
-    z = rng.random((15, 19)) * 3
-    z[7, 3] = np.nan
-    for s, (du, dv) in ((8, (1.0, 1.0)), (10, (0.6, -1.3))):
-        got = fcol.horizon_map(z, (du, dv), sectors=s, method="sweep").elevation
-        ref = numpy_sweep(z, s, du, dv)
-        np.testing.assert_allclose(got, ref.astype(np.float32), rtol=0, atol=5e-7)
+@pytest.mark.parametrize(
+    "method, reference, seed, shape, scale, hole, cases, atol",
+    [
+        # cms: the NumPy centre-line sampler
+        ("cms", numpy_cms, 4, (17, 21), 5, (4, 6), ((8, (1.0, 1.0)), (12, (1.5, -0.7))), 3e-7),
+        # sweep: the line model
+        ("sweep", numpy_sweep, 6, (15, 19), 3, (7, 3), ((8, (1.0, 1.0)), (10, (0.6, -1.3))), 5e-7),
+    ],
+    ids=["cms", "sweep"],
+)
+def test_grid_method_matches_numpy_reference(
+    method, reference, seed, shape, scale, hole, cases, atol
+) -> None:
+    rng = np.random.default_rng(seed)
+    z = rng.random(shape) * scale
+    z[hole] = np.nan
+    for s, (du, dv) in cases:
+        got = fcol.horizon_map(z, (du, dv), sectors=s, method=method).elevation
+        ref = reference(z, s, du, dv)
+        np.testing.assert_allclose(got, ref.astype(np.float32), rtol=0, atol=atol)
 
 
 def test_sweep_is_exact_on_the_centre_line() -> None:

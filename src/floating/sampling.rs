@@ -161,34 +161,21 @@ impl Frame {
     /// The s-interval of the domain on the line t = const (empty: None).
     pub fn domain_s_range(&self, t: f64) -> Option<(f64, f64)> {
         // (u, v) = o + s·rh + t·eh must satisfy the four bounds.
-        let base = self.uv(0.0, t);
-        let mut lo = f64::NEG_INFINITY;
-        let mut hi = f64::INFINITY;
-        for (b, dir, a0, a1) in [
-            (base.x, self.rh.x, self.domain.u0, self.domain.u1),
-            (base.y, self.rh.y, self.domain.v0, self.domain.v1),
-        ] {
-            if dir.abs() < 1e-300 {
-                if b < a0 || b > a1 {
-                    return None;
-                }
-            } else {
-                let (p, q) = ((a0 - b) / dir, (a1 - b) / dir);
-                lo = lo.max(p.min(q));
-                hi = hi.min(p.max(q));
-            }
-        }
-        (lo <= hi).then_some((lo, hi))
+        self.domain_range(self.uv(0.0, t), self.rh)
     }
 
     /// The t-interval where the line s = s0 crosses the domain.
     pub fn domain_t_range_at_s(&self, s: f64) -> Option<(f64, f64)> {
-        let base = self.uv(s, 0.0);
+        self.domain_range(self.uv(s, 0.0), self.eh)
+    }
+
+    /// The interval of x where base + x·dir lies in the domain (empty: None).
+    fn domain_range(&self, base: DVec2, dir: DVec2) -> Option<(f64, f64)> {
         let mut lo = f64::NEG_INFINITY;
         let mut hi = f64::INFINITY;
         for (b, dir, a0, a1) in [
-            (base.x, self.eh.x, self.domain.u0, self.domain.u1),
-            (base.y, self.eh.y, self.domain.v0, self.domain.v1),
+            (base.x, dir.x, self.domain.u0, self.domain.u1),
+            (base.y, dir.y, self.domain.v0, self.domain.v1),
         ] {
             if dir.abs() < 1e-300 {
                 if b < a0 || b > a1 {

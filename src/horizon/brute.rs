@@ -46,7 +46,7 @@ pub fn all(
             });
         }
     }
-    let valid: Vec<usize> = (0..n).filter(|&q| t.z[q].is_finite()).collect();
+    let valid: Vec<usize> = (0..n).filter(|&q| t.has_data(q)).collect();
     let d2max = o.max_distance.map(|d| d * d);
     let mut res = vec![0.0f32; n * k];
     res.par_chunks_mut(k)
@@ -55,7 +55,7 @@ pub fn all(
             if p % 64 == 0 {
                 cancel.check()?;
             }
-            if !t.z[p].is_finite() {
+            if !t.has_data(p) {
                 row.fill(f32::NAN);
                 return Ok(());
             }

@@ -43,70 +43,72 @@ pub fn line_max(
             }
         }
     };
-    let hmax = (rows - 1) as f64;
-    let wmax = (cols - 1) as f64;
-    // Crossings with column lines.
-    if gc != 0.0 {
-        let step = if gc > 0.0 { 1i64 } else { -1 };
-        let m = gr / gc.abs();
-        let mut k = 1i64;
-        loop {
-            let j = j0 as i64 + k * step;
-            if j < 0 || j as usize >= cols {
-                break;
-            }
-            let t = k as f64 / gc.abs();
-            if t > tmax {
-                break;
-            }
-            let rho = i0 as f64 + k as f64 * m;
-            if !(0.0..=hmax).contains(&rho) {
-                break;
-            }
-            let r0 = rho.floor();
-            let fr = rho - r0;
-            let r0 = r0 as usize;
-            let h = if fr == 0.0 {
-                z[r0 * cols + j as usize]
-            } else {
-                z[r0 * cols + j as usize] * (1.0 - fr) + z[(r0 + 1) * cols + j as usize] * fr
-            };
-            take(h, t);
-            k += 1;
-        }
-    }
-    // Crossings with row lines.
-    if gr != 0.0 {
-        let step = if gr > 0.0 { 1i64 } else { -1 };
-        let m = gc / gr.abs();
-        let mut k = 1i64;
-        loop {
-            let i = i0 as i64 + k * step;
-            if i < 0 || i as usize >= rows {
-                break;
-            }
-            let t = k as f64 / gr.abs();
-            if t > tmax {
-                break;
-            }
-            let kap = j0 as f64 + k as f64 * m;
-            if !(0.0..=wmax).contains(&kap) {
-                break;
-            }
-            let c0 = kap.floor();
-            let fc = kap - c0;
-            let c0 = c0 as usize;
-            let row = i as usize * cols;
-            let h = if fc == 0.0 {
-                z[row + c0]
-            } else {
-                z[row + c0] * (1.0 - fc) + z[row + c0 + 1] * fc
-            };
-            take(h, t);
-            k += 1;
-        }
-    }
+    // Crossings with column lines j, samples along them in rows i.
+    let (across, along) = (Axis::new(gc, j0, cols), Axis::new(gr, i0, rows));
+    crossings(across, along, tmax, |j, i| z[i * cols + j], &mut take);
+    // Crossings with row lines i, samples along them in columns j.
+    let (across, along) = (Axis::new(gr, i0, rows), Axis::new(gc, j0, cols));
+    crossings(across, along, tmax, |i, j| z[i * cols + j], &mut take);
     best
+}
+
+/// One grid axis seen from the line's start: lines per unit distance
+/// along it, the start index and the number of lines.
+#[derive(Clone, Copy)]
+struct Axis {
+    g: f64,
+    start: usize,
+    n: usize,
+}
+
+impl Axis {
+    fn new(g: f64, start: usize, n: usize) -> Axis {
+        Axis { g, start, n }
+    }
+}
+
+/// The crossings of the centre line with the grid lines across `across`
+/// (every line it meets, in order, up to distance `tmax` and the grid's
+/// border along `along`): `take(h, t)` with h interpolated linearly between
+/// the two samples `at(line, k)`, `at(line, k + 1)` bordering the crossing.
+fn crossings(
+    across: Axis,
+    along: Axis,
+    tmax: f64,
+    at: impl Fn(usize, usize) -> f64,
+    take: &mut impl FnMut(f64, f64),
+) {
+    if across.g == 0.0 {
+        return;
+    }
+    let step = if across.g > 0.0 { 1i64 } else { -1 };
+    let m = along.g / across.g.abs();
+    let last = (along.n - 1) as f64;
+    let mut k = 1i64;
+    loop {
+        let line = across.start as i64 + k * step;
+        if line < 0 || line as usize >= across.n {
+            break;
+        }
+        let t = k as f64 / across.g.abs();
+        if t > tmax {
+            break;
+        }
+        let pos = along.start as f64 + k as f64 * m;
+        if !(0.0..=last).contains(&pos) {
+            break;
+        }
+        let p0 = pos.floor();
+        let fr = pos - p0;
+        let (line, p0) = (line as usize, p0 as usize);
+        let h = if fr == 0.0 {
+            at(line, p0)
+        } else {
+            at(line, p0) * (1.0 - fr) + at(line, p0 + 1) * fr
+        };
+        take(h, t);
+        k += 1;
+    }
 }
 
 fn grid(t: &Terrain) -> (usize, usize, f64, f64) {
@@ -127,7 +129,7 @@ pub fn sector(
         cancel.check()?;
         for j in 0..cols {
             let q = i * cols + j;
-            plane[q] = if !t.z[q].is_finite() {
+            plane[q] = if !t.has_data(q) {
                 f32::NAN
             } else {
                 match line_max(&t.z, rows, cols, du, dv, i, j, f.r, o.curvature, tmax) {
@@ -161,7 +163,7 @@ pub fn near_vertex(
         }
         for j in 0..cols {
             let q = i * cols + j;
-            if !t.z[q].is_finite() {
+            if !t.has_data(q) {
                 continue;
             }
             if let Some(e) = line_max(&t.z, rows, cols, du, dv, i, j, f.r, o.curvature, tmax) {

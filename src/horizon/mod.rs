@@ -170,6 +170,26 @@ impl Terrain {
     pub fn is_empty(&self) -> bool {
         self.z.is_empty()
     }
+
+    /// Whether point q has data (a finite height); the others are no data,
+    /// NaN in every plane.
+    #[inline]
+    pub fn has_data(&self, q: usize) -> bool {
+        self.z[q].is_finite()
+    }
+
+    /// The points with data, ascending, into `ids` (cleared first), and NaN
+    /// in `plane` at every other point.
+    pub fn split_no_data(&self, plane: &mut [f32], ids: &mut Vec<usize>) {
+        ids.clear();
+        for (q, v) in plane.iter_mut().enumerate() {
+            if self.has_data(q) {
+                ids.push(q);
+            } else {
+                *v = f32::NAN;
+            }
+        }
+    }
 }
 
 /// Options shared by every method.

@@ -417,13 +417,7 @@ pub fn sector_with(
     progress: &Progress,
     w: &mut Work,
 ) -> Result<()> {
-    w.ids.clear();
-    w.ids.extend((0..t.len()).filter(|&q| t.z[q].is_finite()));
-    for (q, v) in plane.iter_mut().enumerate() {
-        if !t.z[q].is_finite() {
-            *v = f32::NAN;
-        }
-    }
+    t.split_no_data(plane, &mut w.ids);
     let n = w.ids.len();
     if n == 0 {
         return Ok(());

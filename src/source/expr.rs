@@ -79,12 +79,79 @@ fn changed_values(c: &Compiled, values: &[f64], changes: &[(String, f64)]) -> Re
     Ok(values)
 }
 
+/// Compiled expression(s) and the parameter values bound to them, `t`
+/// first (rebinding never re-parses).
+#[derive(Clone)]
+struct Bound {
+    compiled: Arc<Compiled>,
+    values: Vec<f64>,
+}
+
+impl Bound {
+    /// Compile `exprs` to derivative order `order`; every parameter must
+    /// appear in them (else the error `unused(name)`).
+    fn new(
+        exprs: &[&str],
+        params: &[(String, f64)],
+        t: f64,
+        order: u8,
+        unused: impl Fn(&str) -> String,
+    ) -> Result<Self> {
+        let names: Vec<&str> = params.iter().map(|(n, _)| n.as_str()).collect();
+        let c = Compiled::new(exprs, &names, order)?;
+        for n in &names {
+            if !c.uses(n) {
+                return Err(FcolError::value("params", unused(n)));
+            }
+        }
+        let values = param_values(&c, t, params)?;
+        Ok(Bound {
+            compiled: Arc::new(c),
+            values,
+        })
+    }
+
+    /// The same expression(s) with some values changed.
+    fn changed(&self, changes: &[(String, f64)]) -> Result<Self> {
+        Ok(Bound {
+            compiled: self.compiled.clone(),
+            values: changed_values(&self.compiled, &self.values, changes)?,
+        })
+    }
+
+    /// (name, value) of every parameter, `t` first.
+    fn params(&self) -> Vec<(String, f64)> {
+        self.compiled
+            .params()
+            .iter()
+            .cloned()
+            .zip(self.values.iter().copied())
+            .collect()
+    }
+
+    /// The program of derivative order `order` at these values.
+    fn program(&self, order: u8) -> Arc<Program> {
+        Arc::new(self.compiled.program(&self.values, order))
+    }
+}
+
+/// Evaluate a tiny batch (at most [`SMALL`] points) point by point with
+/// `eval`; false (nothing done) for a larger one.
+fn small_batch<T>(u: &[f64], v: &[f64], out: &mut [T], eval: impl Fn(f64, f64) -> T) -> bool {
+    if u.len() > SMALL {
+        return false;
+    }
+    for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
+        *o = eval(u, v);
+    }
+    true
+}
+
 /// w = f(u, v) from an expression: a program for (f, f_u, f_v) and one for f
 /// alone, bound to parameter values (rebinding never re-parses).
 #[derive(Clone)]
 pub struct ExprHeight {
-    compiled: Arc<Compiled>,
-    values: Vec<f64>,
+    bound: Bound,
     domain: Domain,
     grad: Arc<Program>,
     value: Arc<Program>,
@@ -93,53 +160,36 @@ pub struct ExprHeight {
 impl ExprHeight {
     /// Compile `expr` with parameters `params` (name, value) and time `t`.
     pub fn new(expr: &str, params: &[(String, f64)], t: f64, domain: Domain) -> Result<Self> {
-        let names: Vec<&str> = params.iter().map(|(n, _)| n.as_str()).collect();
-        let c = Compiled::new(&[expr], &names, 1)?;
-        for n in &names {
-            if !c.uses(n) {
-                return Err(FcolError::value(
-                    "params",
-                    format!("parameter {n:?} does not appear in the expression {expr:?}"),
-                ));
-            }
-        }
-        let values = param_values(&c, t, params)?;
-        Ok(Self::bind(Arc::new(c), values, domain))
+        let bound = Bound::new(&[expr], params, t, 1, |n| {
+            format!("parameter {n:?} does not appear in the expression {expr:?}")
+        })?;
+        Ok(Self::bind(bound, domain))
     }
 
-    fn bind(compiled: Arc<Compiled>, values: Vec<f64>, domain: Domain) -> Self {
-        let grad = Arc::new(compiled.program(&values, 1));
-        let value = Arc::new(compiled.program(&values, 0));
+    fn bind(bound: Bound, domain: Domain) -> Self {
         ExprHeight {
-            compiled,
-            values,
+            grad: bound.program(1),
+            value: bound.program(0),
+            bound,
             domain,
-            grad,
-            value,
         }
     }
 
     /// The same compiled expression with some parameter values (or `t`)
     /// changed.
     pub fn with_values(&self, changes: &[(String, f64)]) -> Result<Self> {
-        let values = changed_values(&self.compiled, &self.values, changes)?;
-        Ok(Self::bind(self.compiled.clone(), values, self.domain))
+        Ok(Self::bind(self.bound.changed(changes)?, self.domain))
     }
 
     pub fn compiled(&self) -> &Arc<Compiled> {
-        &self.compiled
+        &self.bound.compiled
     }
     /// (name, value) of every parameter, `t` first.
     pub fn params(&self) -> Vec<(String, f64)> {
-        self.compiled
-            .params()
-            .iter()
-            .cloned()
-            .zip(self.values.iter().copied())
-            .collect()
+        self.bound.params()
     }
     pub fn expr(&self) -> &str {
-        &self.compiled.sources()[0]
+        &self.bound.compiled.sources()[0]
     }
     /// The (f, f_u, f_v) program.
     pub fn program(&self) -> &Program {
@@ -153,10 +203,7 @@ impl HeightField for ExprHeight {
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         // Tiny batches take the one-point path (same results, bit for bit).
-        if u.len() <= SMALL {
-            for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
-                *o = self.eval(u, v);
-            }
+        if small_batch(u, v, out, |u, v| self.eval(u, v)) {
             return;
         }
         self.grad.eval_chunks(u, v, |start, cols| {
@@ -195,8 +242,7 @@ impl HeightField for ExprHeight {
 /// exact first and second derivatives.
 #[derive(Clone)]
 pub struct ExprParametric {
-    compiled: Arc<Compiled>,
-    values: Vec<f64>,
+    bound: Bound,
     domain: Domain,
     second: Arc<Program>,
     first: Arc<Program>,
@@ -205,46 +251,31 @@ pub struct ExprParametric {
 
 impl ExprParametric {
     pub fn new(exprs: [&str; 3], params: &[(String, f64)], t: f64, domain: Domain) -> Result<Self> {
-        let names: Vec<&str> = params.iter().map(|(n, _)| n.as_str()).collect();
-        let c = Compiled::new(&exprs, &names, 2)?;
-        for n in &names {
-            if !c.uses(n) {
-                return Err(FcolError::value(
-                    "params",
-                    format!("parameter {n:?} appears in none of x, y, z"),
-                ));
-            }
-        }
-        let values = param_values(&c, t, params)?;
-        Ok(Self::bind(Arc::new(c), values, domain))
+        let bound = Bound::new(&exprs, params, t, 2, |n| {
+            format!("parameter {n:?} appears in none of x, y, z")
+        })?;
+        Ok(Self::bind(bound, domain))
     }
 
-    fn bind(compiled: Arc<Compiled>, values: Vec<f64>, domain: Domain) -> Self {
+    fn bind(bound: Bound, domain: Domain) -> Self {
         ExprParametric {
-            second: Arc::new(compiled.program(&values, 2)),
-            first: Arc::new(compiled.program(&values, 1)),
-            point: Arc::new(compiled.program(&values, 0)),
-            compiled,
-            values,
+            second: bound.program(2),
+            first: bound.program(1),
+            point: bound.program(0),
+            bound,
             domain,
         }
     }
 
     pub fn with_values(&self, changes: &[(String, f64)]) -> Result<Self> {
-        let values = changed_values(&self.compiled, &self.values, changes)?;
-        Ok(Self::bind(self.compiled.clone(), values, self.domain))
+        Ok(Self::bind(self.bound.changed(changes)?, self.domain))
     }
 
     pub fn params(&self) -> Vec<(String, f64)> {
-        self.compiled
-            .params()
-            .iter()
-            .cloned()
-            .zip(self.values.iter().copied())
-            .collect()
+        self.bound.params()
     }
     pub fn exprs(&self) -> &[String] {
-        self.compiled.sources()
+        self.bound.compiled.sources()
     }
 }
 
@@ -264,10 +295,7 @@ impl ParametricSurface for ExprParametric {
         self.domain
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
-        if u.len() <= SMALL {
-            for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
-                *o = self.eval(u, v);
-            }
+        if small_batch(u, v, out, |u, v| self.eval(u, v)) {
             return;
         }
         self.second.eval_chunks(u, v, |start, c| {
@@ -297,10 +325,7 @@ impl ParametricSurface for ExprParametric {
         }
     }
     fn eval_first_batch(&self, u: &[f64], v: &[f64], out: &mut [ParamSample]) {
-        if u.len() <= SMALL {
-            for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
-                *o = self.eval_first(u, v);
-            }
+        if small_batch(u, v, out, |u, v| self.eval_first(u, v)) {
             return;
         }
         self.first.eval_chunks(u, v, |start, c| {
