@@ -25,9 +25,18 @@ import fcol
 def started():
     print("started", flush=True)
 
-def finish(ok_after, extra=None):
-    out = {"raised": ok_after is not None, "returned": time.time()}
-    out.update(extra or {})
+# Say "started", run the long call, report whether it raised
+# KeyboardInterrupt, when it returned, and what after() finds then.
+def attempt(call, after=None):
+    started()
+    out = {"raised": False}
+    try:
+        call()
+    except KeyboardInterrupt:
+        out["raised"] = True
+    out["returned"] = time.time()
+    if out["raised"] and after is not None:
+        out.update(after())
     print(json.dumps(out), flush=True)
 """
 
@@ -60,12 +69,7 @@ def test_floating_column_with_a_slow_callable():
             time.sleep(2e-3)  # a slow surface: the render would take minutes
             return np.sin(u) * np.cos(v)
         surf = fcol.Function(f, domain=((-3, 3), (-3, 3)))
-        started()
-        try:
-            fcol.render(surf, fcol.View(30, 40, view_height=8.0), 320, 240, outputs=("depth",))
-            finish(None)
-        except KeyboardInterrupt:
-            finish(True)
+        attempt(lambda: fcol.render(surf, fcol.View(30, 40, view_height=8.0), 320, 240, outputs=("depth",)))
     """)
     _check(report, sent)
 
@@ -77,12 +81,7 @@ def test_parametric_scanline_with_a_slow_callable():
             return np.cos(v) * np.cos(u)
         surf = fcol.Parametric(x, lambda u, v: np.cos(v) * np.sin(u), lambda u, v: np.sin(v),
                                domain=((0, 2 * np.pi), (-np.pi / 2, np.pi / 2)))
-        started()
-        try:
-            fcol.render(surf, fcol.View(30, 20, view_height=2.6), 400, 300, outputs=("mask",))
-            finish(None)
-        except KeyboardInterrupt:
-            finish(True)
+        attempt(lambda: fcol.render(surf, fcol.View(30, 20, view_height=2.6), 400, 300, outputs=("mask",)))
     """)
     _check(report, sent)
 
@@ -94,15 +93,13 @@ def test_a_callable_surface_renders_again_after_ctrl_c():
         f = lambda u, v: np.sin(u) * np.cos(v)
         surf = fcol.Function(lambda u, v: (time.sleep(1e-3), f(u, v))[1], domain=((-3, 3), (-3, 3)))
         view = fcol.View(30, 40, view_height=8.0)
-        started()
-        try:
-            fcol.render(surf, view, 320, 240, outputs=("depth",))
-            finish(None)
-        except KeyboardInterrupt:
+
+        def after():
             again = fcol.render(surf, view, 96, 64, outputs=("depth",)).depth
             fresh = fcol.render(fcol.Function(f, domain=((-3, 3), (-3, 3))), view, 96, 64, outputs=("depth",)).depth
-            same = bool(np.array_equal(again, fresh, equal_nan=True))
-            finish(True, {"same": same, "finite": int(np.isfinite(again).sum())})
+            return {"same": bool(np.array_equal(again, fresh, equal_nan=True)), "finite": int(np.isfinite(again).sum())}
+
+        attempt(lambda: fcol.render(surf, view, 320, 240, outputs=("depth",)), after)
     """)
     _check(report, sent)
     assert report["same"]
@@ -112,12 +109,7 @@ def test_a_callable_surface_renders_again_after_ctrl_c():
 def test_horizon_map():
     report, sent = interrupt("""
         z = np.random.default_rng(1).random((200, 200)).cumsum(0)
-        started()
-        try:
-            fcol.horizon_map(z, spacing=(1, 1), sectors=64, method="brute")
-            finish(None)
-        except KeyboardInterrupt:
-            finish(True)
+        attempt(lambda: fcol.horizon_map(z, spacing=(1, 1), sectors=64, method="brute"))
     """)
     _check(report, sent)
 
@@ -130,12 +122,6 @@ def test_sky_integrals():
         m = hz.HorizonMap(el, range(s), s, np.zeros((n, n)), (1.0, 1.0), "given", 0.0)
         m.normals()
         sky = hz.mars_sky(1.0, 0.4)
-        started()
-        try:
-            for _ in range(20):
-                m.radiosity(sky, albedo=0.3)
-            finish(None)
-        except KeyboardInterrupt:
-            finish(True)
+        attempt(lambda: [m.radiosity(sky, albedo=0.3) for _ in range(20)])
     """, delay=1.0)
     _check(report, sent)
