@@ -371,24 +371,34 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½] as
-    /// elevations of the rays through its pixel's top and bottom edges.
+    /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½]
+    /// along its vertical plane (the screen line through the vanishing
+    /// point of the verticals), as elevations: θ ± ½ / |∂row/∂θ|.
     fn start_coverage(&mut self) {
         let cam = self.ctx.cam;
         let w = cam.width;
-        let elev = |r: f64, c: f64| {
-            let (_, d) = cam.ray(r, c);
-            self.ppr * fast_atan2(d.z, (d.x * d.x + d.y * d.y).sqrt())
-        };
+        let ppr = self.ppr;
+        let delta = 1e-6;
         self.ext = self
             .rays
             .iter()
             .map(|ray| {
                 let (i, j) = ((ray.k as usize / w) as f64, (ray.k as usize % w) as f64);
-                let c = j + self.off.1;
-                let a = elev(i + self.off.0 - 0.5, c);
-                let b = elev(i + self.off.0 + 0.5, c);
-                (a.min(b), a.max(b))
+                let (_, d) = cam.ray(i + self.off.0, j + self.off.1);
+                let hl = (d.x * d.x + d.y * d.y).sqrt();
+                let th = ray.theta;
+                let row = |t: f64| {
+                    let (s, c) = t.sin_cos();
+                    let q = DVec3::new(c * d.x / hl.max(1e-300), c * d.y / hl.max(1e-300), s);
+                    cam.to_screen(cam.eye + q).y
+                };
+                let rate = ((row(th + delta) - row(th - delta)) / (2.0 * delta)).abs();
+                let half = if rate.is_finite() && rate > 0.0 && hl > 1e-12 {
+                    0.5 * ppr / rate
+                } else {
+                    0.5
+                };
+                (th * ppr - half, th * ppr + half)
             })
             .collect();
         let ppr = self.ppr;
