@@ -48,10 +48,11 @@ def render(
     sub-pixel rays in an n-rooks pattern — sub-column m at sub-row
     q·m mod k, q coprime to k near k/φ — so both directions are sampled);
     ``coverage=True``
-    (orthographic views) blends each pixel crossed by a silhouette against
+    blends each pixel crossed by a silhouette against
     the background (a span's outer end, the domain edge or a hole, at the
     sweep's floating-point rows) with the background by the covered
-    fraction of its row extent — intensity is the surface's times that
+    fraction of its row extent (perspective views: of its extent along its
+    sweep's vertical plane, in elevation) — intensity is the surface's times that
     fraction, NaN where nothing is covered. Both together anti-alias both
     directions. Default: neither (``antialias=1``, ``coverage=False``).
 

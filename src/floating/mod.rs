@@ -155,12 +155,6 @@ pub fn render_floating_column(
         ));
     }
     let cam = Camera::new(view, width, height)?;
-    if cam.perspective && opts.coverage {
-        return Err(FcolError::value(
-            "coverage",
-            "sub-pixel coverage applies to orthographic views; use antialias=k for perspective views",
-        ));
-    }
     let frame = sampling::Frame::new(&cam, field.domain());
     let refine = opts.refine
         && (outputs.depth
@@ -204,7 +198,7 @@ pub fn render_floating_column(
             let mut seen = vec![false; n];
             for (k, p) in &px {
                 seen[*k] = true;
-                let c = shade(p, shading, false);
+                let c = shade(p, shading, cov);
                 let a = &mut acc[*k];
                 for c2 in 0..3 {
                     a[c2] += c[c2] / aa as f64;
@@ -235,7 +229,7 @@ pub fn render_floating_column(
             radial::render_radial(&ctx, (0.0, 0.0), cancel)
         })??;
         total = st;
-        write_list(&mut buf, &px, shading);
+        write_list(&mut buf, &px, shading, cov);
     } else {
         with_threads(opts.threads, || -> Result<()> {
             // Columns in chunks so that only a few columns' results are in memory.
@@ -355,11 +349,15 @@ fn shade(p: &Pixel, shading: &Shading, coverage: bool) -> [f64; 4] {
 
 /// Write the listed pixels (row-major index, pixel); the others keep their
 /// background.
-fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading) {
+fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading, cov: bool) {
     let h = buf.height.max(1);
     for mut b in split_rows(buf, h) {
         for (k, p) in px {
-            write_pixel(&mut b, *k, p, None, shading);
+            // With coverage, a partly covered pixel is blended (the others
+            // are written as without coverage).
+            let a = (cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set))
+                .then(|| shade(p, shading, true));
+            write_pixel(&mut b, *k, p, a, shading);
         }
     }
 }

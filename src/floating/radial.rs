@@ -129,8 +129,12 @@ pub fn render_radial(
             let mut sw = RadialSweep::new(ctx, phi, &bin);
             sw.off = off;
             sw.ppr = bin_ppr(cam, phi, bin[0].theta, bin[bin.len() - 1].theta);
+            if ctx.opts.coverage {
+                sw.start_coverage();
+            }
             sw.run();
             sw.solve();
+            sw.finish_coverage();
             Ok((sw.out, sw.stats))
         })
         .collect();
@@ -154,6 +158,11 @@ pub fn render_radial(
         }
     }
     fill_holes(ctx, off, &mut set, &mut depth, &mut all, &mut stats);
+    if ctx.opts.coverage {
+        // A partly covered pixel that the hole filling set keeps only its
+        // set entry.
+        all.retain(|(k, p)| p.set || !set[*k]);
+    }
     Ok((all, stats))
 }
 
@@ -326,6 +335,16 @@ struct RadialSweep<'c, 'a> {
     cursor: usize,
     /// Row and column offsets of the rays (see [`render_radial`]).
     off: (f64, f64),
+    /// With `coverage`: the covered elevations (in the units of `rho`) at
+    /// floating-point precision, including the extrema between samples.
+    fine: Option<super::column::Coverage>,
+    /// With `coverage`: each ray's pixel extent [i − ½, i + ½] in rows, as
+    /// elevations (units of `rho`), and the largest half extent of the bin.
+    ext: Vec<(f64, f64)>,
+    half: f64,
+    /// With `coverage`: the silhouette shading of rays that a span reaches
+    /// into without covering their centre.
+    edge: Vec<Option<Pixel>>,
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -345,6 +364,183 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             batch: Vec::new(),
             cursor: 0,
             off: (0.0, 0.0),
+            fine: None,
+            ext: Vec::new(),
+            half: 0.0,
+            edge: Vec::new(),
+        }
+    }
+
+    /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½]
+    /// along its vertical plane (the screen line through the vanishing
+    /// point of the verticals), as elevations: θ ± ½ / |∂row/∂θ|.
+    fn start_coverage(&mut self) {
+        let cam = self.ctx.cam;
+        let w = cam.width;
+        let ppr = self.ppr;
+        let delta = 1e-6;
+        self.ext = self
+            .rays
+            .iter()
+            .map(|ray| {
+                let (i, j) = ((ray.k as usize / w) as f64, (ray.k as usize % w) as f64);
+                let (_, d) = cam.ray(i + self.off.0, j + self.off.1);
+                let hl = (d.x * d.x + d.y * d.y).sqrt();
+                let th = ray.theta;
+                let row = |t: f64| {
+                    let (s, c) = t.sin_cos();
+                    let q = DVec3::new(c * d.x / hl.max(1e-300), c * d.y / hl.max(1e-300), s);
+                    cam.to_screen(cam.eye + q).y
+                };
+                let rate = ((row(th + delta) - row(th - delta)) / (2.0 * delta)).abs();
+                let half = if rate.is_finite() && rate > 0.0 && hl > 1e-12 {
+                    0.5 * ppr / rate
+                } else {
+                    0.5
+                };
+                (th * ppr - half, th * ppr + half)
+            })
+            .collect();
+        let ppr = self.ppr;
+        self.half = self
+            .rays
+            .iter()
+            .zip(&self.ext)
+            .map(|(r, &(lo, hi))| (r.theta * ppr - lo).max(hi - r.theta * ppr))
+            .fold(0.0, f64::max);
+        self.edge = vec![None; self.rays.len()];
+        self.fine = Some(Default::default());
+    }
+
+    /// Each ray's covered fraction of its extent; the rays not set whose
+    /// extent a span reached into join the output, unset, with that span's
+    /// shading.
+    fn finish_coverage(&mut self) {
+        let Some(fine) = self.fine.take() else {
+            return;
+        };
+        let cov_of = |k: usize| {
+            let (lo, hi) = self.ext[k];
+            if hi > lo {
+                (fine.overlap(lo, hi) / (hi - lo)).min(1.0)
+            } else if fine.contains(lo) {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        // `out` holds the set rays in the order they were revealed; each
+        // one's place there, by its index in the bin.
+        let mut index: Vec<(u32, usize)> = self
+            .rays
+            .iter()
+            .enumerate()
+            .map(|(k, r)| (r.k, k))
+            .collect();
+        index.sort_unstable();
+        let mut slot = vec![usize::MAX; self.rays.len()];
+        for (n, (k, _)) in self.out.iter().enumerate() {
+            let at = index.partition_point(|&(kk, _)| kk < *k as u32);
+            slot[index[at].1] = n;
+        }
+        for (n, &s) in slot.iter().enumerate() {
+            let f = cov_of(n);
+            if s != usize::MAX {
+                self.out[s].1.cover = f;
+            } else if let Some(mut p) = self.edge[n] {
+                if f > 0.0 {
+                    p.cover = f;
+                    if p.inten.is_nan() {
+                        let ray = self.rays[n];
+                        let w = self.ctx.cam.width;
+                        let (i, j) = (ray.k as usize / w, ray.k as usize % w);
+                        let (_, dir) = self
+                            .ctx
+                            .cam
+                            .ray(i as f64 + self.off.0, j as f64 + self.off.1);
+                        p.inten = self.ctx.shading.intensity(p.n, -dir);
+                    }
+                    self.out.push((self.rays[n].k as usize, p));
+                }
+            }
+        }
+    }
+
+    /// §6.4 sub-pixel coverage of the span from a to b (elevations lo..hi),
+    /// as [`super::column`] does for rows: the span extended to the
+    /// extremum of the cubic through the two samples (at most half a pixel
+    /// beyond them) joins the fine coverage; rays whose extent it reaches
+    /// into without covering their centre keep, from the first (nearest)
+    /// such span, its shading there.
+    fn edges(&mut self, a: &Sample, b: &Sample, wall: bool, lo: f64, hi: f64) {
+        let fine = self.fine.as_ref().expect("coverage mode");
+        if fine.covers(lo - 0.5, hi + 0.5) {
+            // Behind the front (the common case): nothing reaches out.
+            return;
+        }
+        let (mut elo, mut ehi) = (lo, hi);
+        if !wall {
+            let dt = b.t - a.t;
+            let (hl, hh) =
+                super::column::hermite_range(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt);
+            elo = hl.max(lo - 0.5);
+            ehi = hh.min(hi + 0.5);
+        }
+        let fine = self.fine.as_mut().expect("coverage mode");
+        if fine.covers(elo, ehi) {
+            return;
+        }
+        fine.add(elo, ehi);
+        let ppr = self.ppr;
+        let m = self.half;
+        let k0 = self.rays.partition_point(|r| r.theta * ppr < elo - m);
+        let topo: i8 = if b.rho > a.rho { 1 } else { -1 };
+        for k in k0..self.rays.len() {
+            let th = self.rays[k].theta * ppr;
+            if th > ehi + m {
+                break;
+            }
+            let (xl, xh) = self.ext[k];
+            if xh < elo || xl > ehi {
+                continue;
+            }
+            // Skip rays set or reached before, and those this span sets
+            // itself.
+            if self.done[k]
+                || self.edge[k].is_some()
+                || (th >= lo && th <= hi && !self.cov.contains(th))
+            {
+                continue;
+            }
+            self.edge[k] = Some(self.edge_pixel(a, b, th, topo, wall));
+        }
+    }
+
+    /// The shading of the span from a to b at its end nearest to elevation
+    /// `th`, for a ray whose centre it does not cover (no exact solve).
+    fn edge_pixel(&self, a: &Sample, b: &Sample, th: f64, topo: i8, wall: bool) -> Pixel {
+        let ctx = self.ctx;
+        let dr = b.rho - a.rho;
+        let tau = if dr != 0.0 {
+            ((th - a.rho) / dr).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let (n, inten) = if wall && ctx.opts.corrections.walls {
+            let hz = DVec3::new(self.eh.x, self.eh.y, 0.0);
+            (if b.wr > a.wr { -hz } else { hz }, f64::NAN)
+        } else if ctx.opts.shading == ShadingMode::Normal {
+            (a.n.lerp(b.n, tau).normalize_or(a.n), f64::NAN)
+        } else {
+            (DVec3::ZERO, a.inten + tau * (b.inten - a.inten))
+        };
+        Pixel {
+            set: false,
+            side: topo,
+            n,
+            inten,
+            cover: 1.0,
+            ..Pixel::default()
         }
     }
 
@@ -555,8 +751,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 rho = rn;
                 break;
             }
-            // Early exit (§4.2): every ray of the bin is covered.
-            if self.cov.covers(th_lo, th_hi) {
+            // Early exit (§4.2): every ray of the bin is covered (with
+            // coverage, every ray's whole extent).
+            let fine_done = match &self.fine {
+                Some(f) => f.covers(th_lo - self.half, th_hi + self.half),
+                None => true,
+            };
+            if self.cov.covers(th_lo, th_hi) && fine_done {
                 self.stats.early_exit += 1;
                 break;
             }
@@ -641,6 +842,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         } else {
             (b.rho, a.rho)
         };
+        if self.fine.is_some() {
+            self.edges(a, b, wall, lo, hi);
+        }
         if self.cov.covers(lo, hi) {
             // Nothing newly revealed (the common case behind the front).
             return;

@@ -110,8 +110,9 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 /// * `antialias` (1): column supersampling of rgb/intensity (§6.4): k
 ///   sub-columns per pixel column, averaged (perspective views: k passes
 ///   of the radial sweep at sub-column offsets);
-/// * `coverage` (False, orthographic views): sub-pixel coverage of
-///   rgb/intensity in the column direction (§6.4): a pixel crossed by a
+/// * `coverage` (False): sub-pixel coverage of rgb/intensity in the
+///   column direction (perspective views: along each sweep's vertical
+///   plane) (§6.4): a pixel crossed by a
 ///   silhouette (a span's outer end against the background, the domain
 ///   edge or a hole, at floating-point rows, with the extremum between
 ///   samples) is blended with the background by the covered fraction of
