@@ -667,23 +667,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         };
         // Shaded from its normal after the sweep (most of these pixels are
         // set by the next span), unless intensities are interpolated.
-        let (n, inten) = if wall && ctx.opts.corrections.walls {
-            let fr = &ctx.frame;
-            let e = DVec3::new(fr.eh.x, fr.eh.y, 0.0);
-            (if b.wr > a.wr { -e } else { e }, f64::NAN)
-        } else if ctx.opts.shading == ShadingMode::Normal {
-            (a.n.lerp(b.n, wb).normalize_or(a.n), f64::NAN)
-        } else {
-            (DVec3::ZERO, a.inten + wb * (b.inten - a.inten))
-        };
-        Pixel {
-            set: false,
-            side: topo,
-            n,
-            inten,
-            cover: 1.0,
-            ..Pixel::default()
-        }
+        edge_shading(ctx, a, b, wb, topo, wall, ctx.frame.eh)
     }
 
     fn pixel(&mut self, a: &Sample, b: &Sample, i: usize, topo: i8, wall: bool) -> Pixel {
@@ -754,6 +738,37 @@ impl<'c, 'a> Sweep<'c, 'a> {
             px.inten = self.ctx.shading.intensity(px.n, -dir);
         }
         px
+    }
+}
+
+/// An edge pixel (partly covered, not solved exactly) shaded from the span
+/// a–b at weight `wb` towards b: a wall's horizontal normal (along ±`eh`, the
+/// sweep plane's horizontal direction), the interpolated normal, or the
+/// interpolated intensity. Shared by the column and radial sweeps.
+pub(super) fn edge_shading(
+    ctx: &Ctx<'_>,
+    a: &Sample,
+    b: &Sample,
+    wb: f64,
+    topo: i8,
+    wall: bool,
+    eh: DVec2,
+) -> Pixel {
+    let (n, inten) = if wall && ctx.opts.corrections.walls {
+        let e = DVec3::new(eh.x, eh.y, 0.0);
+        (if b.wr > a.wr { -e } else { e }, f64::NAN)
+    } else if ctx.opts.shading == ShadingMode::Normal {
+        (a.n.lerp(b.n, wb).normalize_or(a.n), f64::NAN)
+    } else {
+        (DVec3::ZERO, a.inten + wb * (b.inten - a.inten))
+    };
+    Pixel {
+        set: false,
+        side: topo,
+        n,
+        inten,
+        cover: 1.0,
+        ..Pixel::default()
     }
 }
 

@@ -526,22 +526,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         } else {
             0.5
         };
-        let (n, inten) = if wall && ctx.opts.corrections.walls {
-            let hz = DVec3::new(self.eh.x, self.eh.y, 0.0);
-            (if b.wr > a.wr { -hz } else { hz }, f64::NAN)
-        } else if ctx.opts.shading == ShadingMode::Normal {
-            (a.n.lerp(b.n, tau).normalize_or(a.n), f64::NAN)
-        } else {
-            (DVec3::ZERO, a.inten + tau * (b.inten - a.inten))
-        };
-        Pixel {
-            set: false,
-            side: topo,
-            n,
-            inten,
-            cover: 1.0,
-            ..Pixel::default()
-        }
+        super::column::edge_shading(ctx, a, b, tau, topo, wall, self.eh)
     }
 
     fn hidden(&self, a: &Sample, b: &Sample) -> bool {
