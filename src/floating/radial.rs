@@ -451,13 +451,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 if f > 0.0 {
                     p.cover = f;
                     if p.inten.is_nan() {
-                        let ray = self.rays[n];
-                        let w = self.ctx.cam.width;
-                        let (i, j) = (ray.k as usize / w, ray.k as usize % w);
-                        let (_, dir) = self
-                            .ctx
-                            .cam
-                            .ray(i as f64 + self.off.0, j as f64 + self.off.1);
+                        let dir = self.ray_dir(n);
                         p.inten = self.ctx.shading.intensity(p.n, -dir);
                     }
                     self.out.push((self.rays[n].k as usize, p));
@@ -514,6 +508,18 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
             self.edge[k] = Some(self.edge_pixel(a, b, th, topo, wall));
         }
+    }
+
+    /// Direction of ray `k` of this sweep (its pixel centre shifted by the
+    /// pass's sub-pixel offset).
+    fn ray_dir(&self, k: usize) -> DVec3 {
+        let w = self.ctx.cam.width;
+        let pix = self.rays[k].k as usize;
+        let (i, j) = (pix / w, pix % w);
+        self.ctx
+            .cam
+            .ray(i as f64 + self.off.0, j as f64 + self.off.1)
+            .1
     }
 
     /// The shading of the span from a to b at its end nearest to elevation
@@ -851,12 +857,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             if !self.done[k] && !self.cov.contains(th) {
                 self.done[k] = true;
                 let ray = self.rays[k];
-                let w = self.ctx.cam.width;
-                let (i, j) = (ray.k as usize / w, ray.k as usize % w);
-                let (_, dir) = self
-                    .ctx
-                    .cam
-                    .ray(i as f64 + self.off.0, j as f64 + self.off.1);
+                let dir = self.ray_dir(k);
                 let px = self.pixel(a, b, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }

@@ -125,6 +125,14 @@ impl<T: Elevation> Planes<'_, T> {
         Ok(())
     }
 
+    /// The checks of every whole-sky integral: valid planes, every sector
+    /// present, one normal per point.
+    fn check_full(&self, normals: &[f64]) -> Result<()> {
+        self.validate()?;
+        self.require_full()?;
+        check_normals(normals, self.n())
+    }
+
     /// Row `r` of plane `k`.
     #[inline]
     fn row(&self, k: usize, r: usize) -> &[T] {
@@ -288,9 +296,7 @@ pub fn sky_view_factor<T: Elevation>(
     normals: &[f64],
     cancel: &Cancel,
 ) -> Result<Vec<f64>> {
-    p.validate()?;
-    p.require_full()?;
-    check_normals(normals, p.n())?;
+    p.check_full(normals)?;
     let g = SectorGeom::new(p.sectors);
     per_row(p.rows, p.cols, cancel, |r, out| {
         svf_row(p, &g, normals, r, out);
@@ -445,9 +451,7 @@ pub fn illumination<T: Elevation>(
     table: &[f64],
     cancel: &Cancel,
 ) -> Result<Vec<f64>> {
-    p.validate()?;
-    p.require_full()?;
-    check_normals(normals, p.n())?;
+    p.check_full(normals)?;
     let sky = SkyTable::new(table, p.sectors)?;
     let g = SectorGeom::new(p.sectors);
     per_row(p.rows, p.cols, cancel, |r, out| {
@@ -469,9 +473,7 @@ pub fn radiosity<T: Elevation>(
             format!("must lie in [0, 1), got {albedo}"),
         ));
     }
-    p.validate()?;
-    p.require_full()?;
-    check_normals(normals, p.n())?;
+    p.check_full(normals)?;
     let sky = SkyTable::new(table, p.sectors)?;
     let g = SectorGeom::new(p.sectors);
     per_row(p.rows, p.cols, cancel, |r, out| {
