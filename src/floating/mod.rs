@@ -156,19 +156,19 @@ pub fn render_floating_column(
     }
     let cam = Camera::new(view, width, height)?;
     let frame = sampling::Frame::new(&cam, field.domain());
-    let refine = opts.refine
-        && (outputs.depth
-            || outputs.normal
-            || outputs.uv
-            || outputs.side
-            || (outputs.needs_shading() && opts.shading == ShadingMode::Normal));
+    let wants = outputs.depth
+        || outputs.normal
+        || outputs.uv
+        || outputs.side
+        || (outputs.needs_shading() && opts.shading == ShadingMode::Normal);
     let ctx = Ctx {
         cam: &cam,
         frame,
         field,
         shading,
         opts,
-        refine,
+        refine: opts.refine && wants,
+        fallback: wants,
     };
     let mut buf = Buffers::new(width, height, outputs, shading.background);
     let aa = opts.antialias;

@@ -357,8 +357,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             cov: Default::default(),
             out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
-            jobs: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
-            job_side: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
+            jobs: Vec::new(),
+            job_side: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
             batch: Vec::new(),
@@ -870,19 +870,48 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let ctx = self.ctx;
         let cam = ctx.cam;
         let e = cam.eye;
-        let dr = b.rho - a.rho;
-        let tau = if dr != 0.0 {
-            ((th - a.rho) / dr).clamp(0.0, 1.0)
-        } else {
-            0.5
-        };
         let pa = a.world(&ctx.frame);
         let pb = b.world(&ctx.frame);
-        let p = pa.lerp(pb, tau);
-        // The seed on the pixel's own ray: the point at p's distance.
-        let lam0 = (p - e).dot(dir).max(0.0);
-        let q0 = e + lam0 * dir;
+        // The point of the bin's plane at elevation θ: on the cubic through
+        // the two samples (horizontal distance and height with their exact
+        // slopes), or, where that cubic folds over (a silhouette between the
+        // samples), on the chord with an exact solve to follow.
+        let herm = if wall {
+            None
+        } else {
+            super::column::hermite_at(a, b, th)
+        };
+        let (tau, p) = match herm {
+            Some((tau, r, w)) => {
+                let h = DVec2::new(e.x, e.y) + r * self.eh;
+                (tau, DVec3::new(h.x, h.y, w + e.z))
+            }
+            None => {
+                let dr = b.rho - a.rho;
+                let tau = if dr != 0.0 {
+                    ((th - a.rho) / dr).clamp(0.0, 1.0)
+                } else {
+                    0.5
+                };
+                (tau, pa.lerp(pb, tau))
+            }
+        };
         let n_i = a.n.lerp(b.n, tau).normalize_or(a.n);
+        // The pixel's ray is up to half a pixel off the bin's plane: it
+        // meets the surface where it meets the tangent plane at p (to second
+        // order in that offset), unless it grazes that plane.
+        let dn = dir.dot(n_i);
+        let mut lam0 = (p - e).dot(dir).max(0.0);
+        let mut trusted = herm.is_some();
+        if trusted {
+            let l = (p - e).dot(n_i) / dn;
+            if dn.abs() > 0.15 && l.is_finite() && l > 0.0 {
+                lam0 = l;
+            } else {
+                trusted = false;
+            }
+        }
+        let q0 = e + lam0 * dir;
         // Upwards (θ increasing) reveals the upper side, in world terms.
         let topo: i8 = if b.rho > a.rho { 1 } else { -1 };
         let mut px = Pixel {
@@ -894,7 +923,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             inten: a.inten + tau * (b.inten - a.inten),
             cover: 1.0,
         };
-        let queued = ctx.refine && !wall;
+        let queued = !wall && (ctx.refine || (ctx.fallback && !trusted));
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
