@@ -181,7 +181,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         cov: Coverage::default(),
         h: ctx.cam.height,
         stats: ColumnStats::default(),
-        jobs: Vec::new(),
+        jobs: Vec::with_capacity(if ctx.fallback { ctx.cam.height } else { 0 }),
         ahead: (line.kappa == 0.0).then(Box::default),
         batch: Vec::new(),
         fine: ctx.opts.coverage.then(Coverage::default),

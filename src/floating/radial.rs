@@ -90,14 +90,13 @@ pub fn render_radial(
     };
     // Bin and elevation of every pixel (rows in parallel), then a counting
     // sort by bin.
-    let per_px: Vec<(u32, f64)> = (0..h)
+    let per_px: Vec<(u32, f64)> = (0..w * h)
         .into_par_iter()
-        .flat_map_iter(|i| {
-            (0..w).map(move |j| {
-                let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
-                let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-                (bin_of(dir) as u32, fast_atan2(dir.z, hl))
-            })
+        .map(|k| {
+            let (i, j) = (k / w, k % w);
+            let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+            let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
+            (bin_of(dir) as u32, fast_atan2(dir.z, hl))
         })
         .collect();
     let mut start = vec![0usize; nb + 1];
@@ -124,7 +123,7 @@ pub fn render_radial(
         .map(|&b| {
             cancel.check()?;
             let mut bin: Vec<Ray> = rays[start[b]..start[b + 1]].to_vec();
-            bin.sort_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
+            bin.sort_unstable_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
             let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
             let mut sw = RadialSweep::new(ctx, phi, &bin);
             sw.off = off;
@@ -143,7 +142,7 @@ pub fn render_radial(
     let mut set = vec![false; w * h];
     let mut depth = vec![f64::NAN; w * h];
     let mut stats = ColumnStats::default();
-    let mut all = Vec::new();
+    let mut all = Vec::with_capacity(w * h);
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
@@ -151,11 +150,7 @@ pub fn render_radial(
             set[k] = p.set;
             depth[k] = p.depth;
         }
-        if all.is_empty() {
-            all = px;
-        } else {
-            all.extend(px);
-        }
+        all.extend(px);
     }
     fill_holes(ctx, off, &mut set, &mut depth, &mut all, &mut stats);
     if ctx.opts.coverage {
@@ -357,8 +352,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             cov: Default::default(),
             out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
-            jobs: Vec::new(),
-            job_side: Vec::new(),
+            jobs: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
+            job_side: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
             batch: Vec::new(),
