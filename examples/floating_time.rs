@@ -22,8 +22,8 @@ fn main() {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
             "refine" => o.refine = v == "1" || v == "true",
-            "step" => o.step = v.parse().unwrap(),
-            "max_step" => o.max_step = v.parse().unwrap(),
+            "step" => o.step = Some(v.parse().unwrap()),
+            "max_step" => o.max_step = Some(v.parse().unwrap()),
             _ => panic!("unknown option {k}"),
         }
     }

@@ -411,7 +411,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     fn sweep(&mut self, t_start: f64, sign: f64, len: f64, out: &mut [Pixel]) {
         let opts = self.ctx.opts;
         let fr = self.ctx.frame;
-        let step_px = opts.step;
+        let step_px = opts.step();
         let tt = |tau: f64| t_start + sign * tau;
         let w0 = self.ctx.cam.view.target.z - fr.origin.z;
         let mut tau = 0.0;
@@ -430,7 +430,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 Some(a) => fr.footprint(a.z),
                 None => fr.footprint(self.z_guess(tt(tau))),
             };
-            let cap = opts.max_step * fp;
+            let cap = opts.max_step() * fp;
             // The step aims a little under the row gap allowed (so that
             // few steps are retried), and any step up to the allowed gap
             // is taken from the look-ahead.

@@ -42,10 +42,15 @@ pub struct FloatingOptions {
     /// Solve each revealed pixel exactly on its ray (depth, normal, uv).
     pub refine: bool,
     /// Largest row gap between consecutive samples, in pixels (the sample
-    /// step adapts to the projected step; ≤ 1 by default).
-    pub step: f64,
-    /// Largest step along a column's curve, in lateral pixel footprints.
-    pub max_step: f64,
+    /// step adapts to the projected step). None: 3, or 1 with `coverage`
+    /// (whose sub-pixel silhouettes come from the cubic between samples).
+    /// With the exact solve, the cubic through two samples 3 pixels apart,
+    /// with their exact slopes, seeds each pixel to about 1e-3 px, so that
+    /// one evaluation per pixel mostly settles it.
+    pub step: Option<f64>,
+    /// Largest step along a sweep, in lateral pixel footprints. None: 4, or
+    /// 2 with `coverage`.
+    pub max_step: Option<f64>,
     /// Newton stops when its step is below `refine_tol` pixels.
     pub refine_tol: f64,
     pub refine_iters: usize,
@@ -67,8 +72,8 @@ impl Default for FloatingOptions {
         FloatingOptions {
             shading: ShadingMode::Normal,
             refine: true,
-            step: 1.0,
-            max_step: 2.0,
+            step: None,
+            max_step: None,
             refine_tol: 5e-4,
             refine_iters: 8,
             corrections: Corrections::default(),
@@ -81,6 +86,19 @@ impl Default for FloatingOptions {
 }
 
 impl FloatingOptions {
+    /// The sample step in rows (see [`FloatingOptions::step`]).
+    #[inline]
+    pub fn step(&self) -> f64 {
+        self.step.unwrap_or(if self.coverage { 1.0 } else { 3.0 })
+    }
+
+    /// The largest step in footprints (see [`FloatingOptions::max_step`]).
+    #[inline]
+    pub fn max_step(&self) -> f64 {
+        self.max_step
+            .unwrap_or(if self.coverage { 2.0 } else { 4.0 })
+    }
+
     pub fn validate(&self) -> Result<()> {
         let pos = |name: &str, x: f64| -> Result<()> {
             if x.is_finite() && x > 0.0 {
@@ -92,8 +110,12 @@ impl FloatingOptions {
                 ))
             }
         };
-        pos("step", self.step)?;
-        pos("max_step", self.max_step)?;
+        if let Some(x) = self.step {
+            pos("step", x)?;
+        }
+        if let Some(x) = self.max_step {
+            pos("max_step", x)?;
+        }
         pos("refine_tol", self.refine_tol)?;
         pos("threshold", self.corrections.threshold)?;
         if self.refine_iters == 0 || self.refine_iters > 100 {

@@ -685,20 +685,20 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             steps += 1;
             let (h_max0, mut hstep) = match &prev {
                 Some(a) => {
-                    let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
+                    let cap = opts.max_step() * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
-                    let deep = self.cov.depth(a.rho) > 2.0 * opts.step;
+                    let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                     if !deep && r > 0.0 && r.is_finite() {
                         (
-                            (opts.step / r).min(cap),
-                            (super::column::AIM * opts.step / r).min(cap),
+                            (opts.step() / r).min(cap),
+                            (super::column::AIM * opts.step() / r).min(cap),
                         )
                     } else {
                         (cap, cap)
                     }
                 }
                 None => {
-                    let cap = opts.max_step * (rho.max(1e-9 * scale)) / ctx.cam.focal;
+                    let cap = opts.max_step() * (rho.max(1e-9 * scale)) / ctx.cam.focal;
                     (cap, cap)
                 }
             };
@@ -709,18 +709,18 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
-                        let hidden = gap > opts.step && self.hidden(&a, &b);
-                        if gap > opts.step
+                        let hidden = gap > opts.step() && self.hidden(&a, &b);
+                        if gap > opts.step()
                             && !hidden
                             && halvings < 40
                             && (rn - rho) > 1e-9 * fp_at(&a)
                         {
-                            hstep = (rn - rho) * (0.9 * opts.step / gap).clamp(0.05, 0.5);
+                            hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
                             h_max = hstep;
                             halvings += 1;
                             continue;
                         }
-                        let wall = gap > opts.step && !hidden;
+                        let wall = gap > opts.step() && !hidden;
                         if wall {
                             self.stats.walls += 1;
                         }
