@@ -111,7 +111,8 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   normals; only pixels whose span folds over or whose ray grazes are
 ///   solved: depth stays within 0.02 px median, 0.5 px p99, normals
 ///   carry the interpolation error (0.2° median on smooth surfaces, up to
-///   a few degrees on a grid's kinks); it saves 10–20 % of the time;
+///   a few degrees on a grid's kinks); it saves about 10 % of the time
+///   (orthographic; little in perspective);
 /// * `step` (3.0; 1.0 with `coverage`): largest screen gap between
 ///   samples, pixels; `max_step` (4.0; 2.0 with `coverage`): largest step
 ///   along a sweep, in pixel footprints (step=1, max_step=2: the dense
