@@ -251,7 +251,7 @@ pub fn render_floating_column(
             radial::render_radial(&ctx, (0.0, 0.0), cancel)
         })??;
         total = st;
-        write_list(&mut buf, &px, shading, cov);
+        with_threads(opts.threads, || write_list(&mut buf, &px, shading, cov))?;
     } else {
         with_threads(opts.threads, || -> Result<()> {
             // Columns in chunks so that only a few columns' results are in memory.
@@ -372,16 +372,26 @@ fn shade(p: &Pixel, shading: &Shading, coverage: bool) -> [f64; 4] {
 /// Write the listed pixels (row-major index, pixel); the others keep their
 /// background.
 fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading, cov: bool) {
-    let h = buf.height.max(1);
-    for mut b in split_rows(buf, h) {
-        for (k, p) in px {
+    // Each pixel's entry (the last one, should a pixel be listed twice),
+    // then blocks of rows in parallel.
+    let w = buf.width;
+    let mut at = vec![u32::MAX; w * buf.height];
+    for (m, (k, _)) in px.iter().enumerate() {
+        at[*k] = m as u32;
+    }
+    split_rows(buf, ROWS).into_par_iter().for_each(|mut b| {
+        for (n, &m) in at[b.i0 * w..b.i1 * w].iter().enumerate() {
+            if m == u32::MAX {
+                continue;
+            }
+            let p = &px[m as usize].1;
             // With coverage, a partly covered pixel is blended (the others
             // are written as without coverage).
             let a = (cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set))
                 .then(|| shade(p, shading, true));
-            write_pixel(&mut b, *k, p, a, shading);
+            write_pixel(&mut b, n, p, a, shading);
         }
-    }
+    });
 }
 
 /// The step q of the sub-row permutation m ↦ q·m mod k of the perspective
