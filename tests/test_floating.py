@@ -46,13 +46,20 @@ def reference(name, kw, w=W, h=H):
     return _REFS[key]
 
 
+# The sweep of the default (samples up to 3 pixels apart, every revealed pixel
+# solved on its ray from the cubic through its span's samples) and the dense
+# sweep (samples at most a pixel apart, as Gordon's §4.2 draws).
+MODES = {"default": {}, "dense": dict(step=1.0, max_step=2.0)}
+
+
+@pytest.mark.parametrize("mode", list(MODES))
 @pytest.mark.parametrize("name,kw", CASES, ids=[f"{n}-{i}" for i, (n, _) in enumerate(CASES)])
-def test_accuracy_against_exact_reference(name, kw):
+def test_accuracy_against_exact_reference(name, kw, mode):
     # 3 sin(u cos v) is intricate: at 128 × 100 most of its pixels lie within
     # a pixel of a silhouette, which dominates SSIM; it is tested at 256 × 200.
     w, h = (256, 200) if name == "sinuv" else (W, H)
     view = make_view(kw)
-    img = fcol.render(surface(name), view, w, h, outputs=ALL, shading="normal")
+    img = fcol.render(surface(name), view, w, h, outputs=ALL, shading="normal", **MODES[mode])
     ref = reference(name, kw, w, h)
     res = compare(img, ref, view)
     assert res["n_compared"] > 0.2 * w * h, res
@@ -63,6 +70,44 @@ def test_accuracy_against_exact_reference(name, kw):
     assert res["normal_deg_p99"] <= 3.0, res
     assert res["ssim"] >= 0.97, res
     assert res["side_bad"] == 0, res
+    # Every pixel is solved on its own ray: far inside those bounds.
+    assert res["depth_px_median"] <= 1e-4 and res["depth_px_p99"] <= 1e-3, res
+    assert res["normal_deg_median"] <= 1e-3 and res["normal_deg_p99"] <= 0.05, res
+
+
+# refine=False: the cubic's point (in perspective moved onto the pixel's own
+# ray by the tangent plane) and the interpolated normal; exact solves only
+# where a span folds or a ray grazes. Depth meets the exact mode's bounds;
+# normals carry the interpolation error (largest on the DEM's bilinear kinks).
+CHEAP_NORMAL = {"sinuv": (0.2, 5.0), "bump": (0.2, 2.0), "ripples": (2.0, 8.0), "dem": (3.0, 30.0)}
+
+
+@pytest.mark.parametrize("name,kw", CASES, ids=[f"{n}-{i}" for i, (n, _) in enumerate(CASES)])
+def test_accuracy_without_refinement(name, kw):
+    w, h = (256, 200) if name == "sinuv" else (W, H)
+    view = make_view(kw)
+    img = fcol.render(surface(name), view, w, h, outputs=ALL, refine=False)
+    res = compare(img, reference(name, kw, w, h), view)
+    assert res["n_compared"] > 0.2 * w * h, res
+    assert res["mask_bad"] == 0 and res["side_bad"] == 0, res
+    # Perspective included: no lateral offset of the pixels' rays.
+    assert res["depth_px_median"] <= 0.02, res
+    assert res["depth_px_p99"] <= 0.5, res
+    med, p99 = CHEAP_NORMAL[name]
+    assert res["normal_deg_median"] <= med and res["normal_deg_p99"] <= p99, res
+    assert res["ssim"] >= 0.93, res
+
+
+def test_default_sweep_samples_less_than_the_dense_one():
+    """The default's coarser sweep: fewer evaluations than the dense sweep,
+    on both projections of the bench surface (counted, not timed)."""
+    s = surface("sinuv")
+    for kw in (CASES[0][1], CASES[2][1]):
+        view = make_view(kw)
+        a = fcol.render(s, view, 240, 200, outputs=("rgb", "depth", "normal", "mask"))
+        b = fcol.render(s, view, 240, 200, outputs=("rgb", "depth", "normal", "mask"), step=1.0, max_step=2.0)
+        assert a.stats["sweep_samples"] < 0.7 * b.stats["sweep_samples"], (a.stats, b.stats)
+        assert a.samples < 0.85 * b.samples, (a.samples, b.samples)
 
 
 def test_gouraud_and_phong_without_refinement_are_close():
@@ -121,10 +166,12 @@ def test_bad_input():
         fcol.render(s, view, 10, 10, refine="yes")
 
 
-def test_identical_for_any_thread_count():
-    view = make_view(CASES[2][1])
-    a = fcol.render(surface("sinuv"), view, 48, 40, outputs=ALL, threads=1)
-    b = fcol.render(surface("sinuv"), view, 48, 40, outputs=ALL, threads=2)
+@pytest.mark.parametrize("case", [0, 2])
+@pytest.mark.parametrize("opts", [{}, dict(refine=False), dict(step=1.0, max_step=2.0)], ids=["default", "cheap", "dense"])
+def test_identical_for_any_thread_count(case, opts):
+    view = make_view(CASES[case][1])
+    a = fcol.render(surface("sinuv"), view, 48, 40, outputs=ALL, threads=1, **opts)
+    b = fcol.render(surface("sinuv"), view, 48, 40, outputs=ALL, threads=2, **opts)
     for k in ALL:
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
     assert a.samples == b.samples

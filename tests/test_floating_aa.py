@@ -19,6 +19,8 @@ from fcol.testing.reference import height_reference
 from floating_surfaces import SURFACES, surface
 
 FLAT = dict(ambient=1.0, diffuse=0.0, specular=0.0)
+# The sweep `coverage=True` uses by default.
+DENSE = dict(step=1.0, max_step=2.0)
 W, H = 48, 40
 
 _REFS: dict = {}
@@ -126,6 +128,13 @@ def test_defaults_unchanged_and_geometry_per_pixel_centre():
     c = fcol.render(surface(name), view, W, H, outputs=outs, coverage=True)
     for k in outs:
         assert np.array_equal(getattr(a, k), getattr(b, k), equal_nan=k not in ("mask", "side", "rgb"))
+    # Coverage samples densely by default (its sub-pixel silhouettes come
+    # from the cubic between samples): the same geometry as the plain
+    # render of that sweep.
+    a = fcol.render(surface(name), view, W, H, outputs=outs, **DENSE)
+    c2 = fcol.render(surface(name), view, W, H, outputs=outs, coverage=True, **DENSE)
+    for k in outs:
+        assert np.array_equal(getattr(c, k), getattr(c2, k), equal_nan=k not in ("mask", "side", "rgb"))
     for k in ("depth", "normal", "mask", "side"):
         assert np.array_equal(getattr(a, k), getattr(c, k), equal_nan=k not in ("mask", "side"))
     # Only silhouette pixels change colour, and some do.
@@ -191,7 +200,7 @@ def test_perspective_coverage_matches_exact_column_coverage(name, view):
 def test_perspective_coverage_geometry_unchanged():
     name, view = PERSP
     outs = ("rgb", "intensity", "depth", "normal", "uv", "mask", "side")
-    a = fcol.render(surface(name), view, W, H, outputs=outs)
+    a = fcol.render(surface(name), view, W, H, outputs=outs, **DENSE)
     c = fcol.render(surface(name), view, W, H, outputs=outs, coverage=True)
     for k in ("depth", "normal", "uv", "mask", "side"):
         assert np.array_equal(getattr(a, k), getattr(c, k), equal_nan=k not in ("mask", "side")), k

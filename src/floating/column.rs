@@ -66,9 +66,12 @@ pub struct Ctx<'a> {
     pub field: &'a dyn HeightField,
     pub shading: &'a Shading,
     pub opts: &'a FloatingOptions,
-    /// Exact per-pixel solve wanted (depth/normal/uv asked for, or normal
-    /// shading), and allowed by the options.
+    /// Exact per-pixel solve of every revealed pixel wanted (depth/normal/uv
+    /// asked for, or normal shading), and asked for by the options.
     pub refine: bool,
+    /// Exact solve of the pixels whose interpolation the error estimate
+    /// does not trust (the default mode; implied by `refine`).
+    pub fallback: bool,
 }
 
 /// Covered rows of a column: disjoint closed intervals, sorted.
@@ -178,7 +181,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         cov: Coverage::default(),
         h: ctx.cam.height,
         stats: ColumnStats::default(),
-        jobs: Vec::with_capacity(if ctx.refine { ctx.cam.height } else { 0 }),
+        jobs: Vec::with_capacity(if ctx.fallback { ctx.cam.height } else { 0 }),
         ahead: (line.kappa == 0.0).then(Box::default),
         batch: Vec::new(),
         fine: ctx.opts.coverage.then(Coverage::default),
@@ -261,6 +264,58 @@ pub(crate) fn hermite_range(p0: f64, p1: f64, m0: f64, m1: f64) -> (f64, f64) {
         }
     }
     (lo, hi)
+}
+
+/// The point of the span a → b at row `row` on the cubic Hermite through the
+/// two samples' rows and heights with their exact slopes along the sweep
+/// (§4.2's interpolation, to fourth order instead of second): (τ, t, w').
+/// `None` where the cubic's rows are not monotone over the span (a
+/// silhouette between the samples: Fritsch–Carlson's α² + β² ≤ 9 fails) or
+/// the solve does not settle; the caller then interpolates linearly and
+/// solves the pixel exactly.
+#[inline]
+pub(super) fn hermite_at(a: &Sample, b: &Sample, row: f64) -> Option<(f64, f64, f64)> {
+    let dt = b.t - a.t;
+    let dr = b.rho - a.rho;
+    let (m0, m1) = (a.drho_dt * dt, b.drho_dt * dt);
+    if dr == 0.0 || !(m0.is_finite() && m1.is_finite()) {
+        return None;
+    }
+    let (al, be) = (m0 / dr, m1 / dr);
+    if al < 0.0 || be < 0.0 || al * al + be * be > 9.0 {
+        return None;
+    }
+    let ca = 2.0 * (a.rho - b.rho) + m0 + m1;
+    let cb = 3.0 * dr - 2.0 * m0 - m1;
+    let mut tau = ((row - a.rho) / dr).clamp(0.0, 1.0);
+    let mut res = f64::INFINITY;
+    for _ in 0..4 {
+        let p = ((ca * tau + cb) * tau + m0) * tau + a.rho - row;
+        res = p.abs();
+        if res < 1e-7 {
+            break;
+        }
+        let dp = (3.0 * ca * tau + 2.0 * cb) * tau + m0;
+        if dp * dr <= 0.0 {
+            return None;
+        }
+        tau = (tau - p / dp).clamp(0.0, 1.0);
+    }
+    if res > 1e-3 {
+        let p = ((ca * tau + cb) * tau + m0) * tau + a.rho - row;
+        if p.abs() > 1e-3 {
+            return None;
+        }
+    }
+    let (w0, w1) = (a.wr, b.wr);
+    let (n0, n1) = (a.dw_dt * dt, b.dw_dt * dt);
+    if !(n0.is_finite() && n1.is_finite()) {
+        return None;
+    }
+    let wa = 2.0 * (w0 - w1) + n0 + n1;
+    let wb = 3.0 * (w1 - w0) - 2.0 * n0 - n1;
+    let w = ((wa * tau + wb) * tau + n0) * tau + w0;
+    Some((tau, a.t + tau * dt, w))
 }
 
 impl<'c, 'a> Sweep<'c, 'a> {
@@ -356,7 +411,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     fn sweep(&mut self, t_start: f64, sign: f64, len: f64, out: &mut [Pixel]) {
         let opts = self.ctx.opts;
         let fr = self.ctx.frame;
-        let step_px = opts.step;
+        let step_px = opts.step();
         let tt = |tau: f64| t_start + sign * tau;
         let w0 = self.ctx.cam.view.target.z - fr.origin.z;
         let mut tau = 0.0;
@@ -375,7 +430,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 Some(a) => fr.footprint(a.z),
                 None => fr.footprint(self.z_guess(tt(tau))),
             };
-            let cap = opts.max_step * fp;
+            let cap = opts.max_step() * fp;
             // The step aims a little under the row gap allowed (so that
             // few steps are retried), and any step up to the allowed gap
             // is taken from the look-ahead.
@@ -673,18 +728,32 @@ impl<'c, 'a> Sweep<'c, 'a> {
     fn pixel(&mut self, a: &Sample, b: &Sample, i: usize, topo: i8, wall: bool) -> Pixel {
         let fr = self.ctx.frame;
         let row = i as f64;
-        let dr = b.rho - a.rho;
-        let tau = if dr != 0.0 {
-            ((row - a.rho) / dr).clamp(0.0, 1.0)
+        // Orthographic spans: the point on the cubic through the two
+        // samples (fourth order); elsewhere, or where the cubic's rows are
+        // not monotone (a silhouette between the samples), linear weights
+        // and an exact solve.
+        let herm = if fr.persp || wall {
+            None
         } else {
-            0.5
+            hermite_at(a, b, row)
         };
-        // Perspective-correct weights (1/z is linear on the screen).
-        let (z, wb) = if fr.persp {
-            let iz = (1.0 - tau) / a.z + tau / b.z;
-            (1.0 / iz, tau / b.z / iz)
-        } else {
-            (a.z + tau * (b.z - a.z), tau)
+        let (z, wb) = match herm {
+            Some((tau, t, w)) => (t * fr.d_t + w * fr.d_w, tau),
+            None => {
+                let dr = b.rho - a.rho;
+                let tau = if dr != 0.0 {
+                    ((row - a.rho) / dr).clamp(0.0, 1.0)
+                } else {
+                    0.5
+                };
+                // Perspective-correct weights (1/z is linear on the screen).
+                if fr.persp {
+                    let iz = (1.0 - tau) / a.z + tau / b.z;
+                    (1.0 / iz, tau / b.z / iz)
+                } else {
+                    (a.z + tau * (b.z - a.z), tau)
+                }
+            }
         };
         let uv = a.uv.lerp(b.uv, wb);
         let n = a.n.lerp(b.n, wb).normalize_or(a.n);
@@ -698,28 +767,17 @@ impl<'c, 'a> Sweep<'c, 'a> {
             inten,
             cover: 1.0,
         };
-        let (o, dir) = self.ctx.cam.ray(row, self.col);
+        let exact = !wall && (self.ctx.refine || (self.ctx.fallback && herm.is_none()));
         let mut queued = false;
-        if self.ctx.refine && !wall {
-            // Solved later, batched with the column's other pixels.
-            let fr = self.ctx.frame;
-            let dd = dir.dot(self.ctx.cam.d);
-            if dd > 0.0 {
-                let to_lam = |z: f64| if fr.persp { z / dd } else { z };
-                let fp = fr.footprint(z);
-                let span = (to_lam(a.z) - to_lam(b.z)).abs();
-                self.jobs.push(super::refine::Job {
-                    slot: i,
-                    o,
-                    dir,
-                    lam: to_lam(z),
-                    lo: to_lam(a.z).min(to_lam(b.z)) - 2.0 * fp - span,
-                    hi: to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span,
-                    fp,
-                });
-                queued = true;
+        let dir = if fr.persp || exact {
+            let (o, dir) = self.ctx.cam.ray(row, self.col);
+            if exact {
+                queued = self.queue(a, b, i, o, dir, z);
             }
-        }
+            dir
+        } else {
+            self.ctx.cam.d
+        };
         if wall && self.ctx.opts.corrections.walls {
             // §5.1: a wall is not sampled; shade it as the vertical face it
             // is (normal horizontal, along the column's plane towards the
@@ -738,6 +796,32 @@ impl<'c, 'a> Sweep<'c, 'a> {
             px.inten = self.ctx.shading.intensity(px.n, -dir);
         }
         px
+    }
+}
+
+impl Sweep<'_, '_> {
+    /// Queue pixel `i` (ray o + λ·dir, interpolated depth z) for the
+    /// batched exact solve, bracketed by the span a–b; false when the ray
+    /// does not look into the scene.
+    fn queue(&mut self, a: &Sample, b: &Sample, i: usize, o: DVec3, dir: DVec3, z: f64) -> bool {
+        let fr = self.ctx.frame;
+        let dd = dir.dot(self.ctx.cam.d);
+        if dd <= 0.0 {
+            return false;
+        }
+        let to_lam = |z: f64| if fr.persp { z / dd } else { z };
+        let fp = fr.footprint(z);
+        let span = (to_lam(a.z) - to_lam(b.z)).abs();
+        self.jobs.push(super::refine::Job {
+            slot: i,
+            o,
+            dir,
+            lam: to_lam(z),
+            lo: to_lam(a.z).min(to_lam(b.z)) - 2.0 * fp - span,
+            hi: to_lam(a.z).max(to_lam(b.z)) + 2.0 * fp + span,
+            fp,
+        });
+        true
     }
 }
 

@@ -42,10 +42,15 @@ pub struct FloatingOptions {
     /// Solve each revealed pixel exactly on its ray (depth, normal, uv).
     pub refine: bool,
     /// Largest row gap between consecutive samples, in pixels (the sample
-    /// step adapts to the projected step; ≤ 1 by default).
-    pub step: f64,
-    /// Largest step along a column's curve, in lateral pixel footprints.
-    pub max_step: f64,
+    /// step adapts to the projected step). None: 3, or 1 with `coverage`
+    /// (whose sub-pixel silhouettes come from the cubic between samples).
+    /// With the exact solve, the cubic through two samples 3 pixels apart,
+    /// with their exact slopes, seeds each pixel to about 1e-3 px, so that
+    /// one evaluation per pixel mostly settles it.
+    pub step: Option<f64>,
+    /// Largest step along a sweep, in lateral pixel footprints. None: 4, or
+    /// 2 with `coverage`.
+    pub max_step: Option<f64>,
     /// Newton stops when its step is below `refine_tol` pixels.
     pub refine_tol: f64,
     pub refine_iters: usize,
@@ -67,8 +72,8 @@ impl Default for FloatingOptions {
         FloatingOptions {
             shading: ShadingMode::Normal,
             refine: true,
-            step: 1.0,
-            max_step: 2.0,
+            step: None,
+            max_step: None,
             refine_tol: 5e-4,
             refine_iters: 8,
             corrections: Corrections::default(),
@@ -81,6 +86,19 @@ impl Default for FloatingOptions {
 }
 
 impl FloatingOptions {
+    /// The sample step in rows (see [`FloatingOptions::step`]).
+    #[inline]
+    pub fn step(&self) -> f64 {
+        self.step.unwrap_or(if self.coverage { 1.0 } else { 3.0 })
+    }
+
+    /// The largest step in footprints (see [`FloatingOptions::max_step`]).
+    #[inline]
+    pub fn max_step(&self) -> f64 {
+        self.max_step
+            .unwrap_or(if self.coverage { 2.0 } else { 4.0 })
+    }
+
     pub fn validate(&self) -> Result<()> {
         let pos = |name: &str, x: f64| -> Result<()> {
             if x.is_finite() && x > 0.0 {
@@ -92,8 +110,12 @@ impl FloatingOptions {
                 ))
             }
         };
-        pos("step", self.step)?;
-        pos("max_step", self.max_step)?;
+        if let Some(x) = self.step {
+            pos("step", x)?;
+        }
+        if let Some(x) = self.max_step {
+            pos("max_step", x)?;
+        }
         pos("refine_tol", self.refine_tol)?;
         pos("threshold", self.corrections.threshold)?;
         if self.refine_iters == 0 || self.refine_iters > 100 {
@@ -156,19 +178,19 @@ pub fn render_floating_column(
     }
     let cam = Camera::new(view, width, height)?;
     let frame = sampling::Frame::new(&cam, field.domain());
-    let refine = opts.refine
-        && (outputs.depth
-            || outputs.normal
-            || outputs.uv
-            || outputs.side
-            || (outputs.needs_shading() && opts.shading == ShadingMode::Normal));
+    let wants = outputs.depth
+        || outputs.normal
+        || outputs.uv
+        || outputs.side
+        || (outputs.needs_shading() && opts.shading == ShadingMode::Normal);
     let ctx = Ctx {
         cam: &cam,
         frame,
         field,
         shading,
         opts,
-        refine,
+        refine: opts.refine && wants,
+        fallback: wants,
     };
     let mut buf = Buffers::new(width, height, outputs, shading.background);
     let aa = opts.antialias;
@@ -229,7 +251,7 @@ pub fn render_floating_column(
             radial::render_radial(&ctx, (0.0, 0.0), cancel)
         })??;
         total = st;
-        write_list(&mut buf, &px, shading, cov);
+        with_threads(opts.threads, || write_list(&mut buf, &px, shading, cov))?;
     } else {
         with_threads(opts.threads, || -> Result<()> {
             // Columns in chunks so that only a few columns' results are in memory.
@@ -350,16 +372,26 @@ fn shade(p: &Pixel, shading: &Shading, coverage: bool) -> [f64; 4] {
 /// Write the listed pixels (row-major index, pixel); the others keep their
 /// background.
 fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading, cov: bool) {
-    let h = buf.height.max(1);
-    for mut b in split_rows(buf, h) {
-        for (k, p) in px {
+    // Each pixel's entry (the last one, should a pixel be listed twice),
+    // then blocks of rows in parallel.
+    let w = buf.width;
+    let mut at = vec![u32::MAX; w * buf.height];
+    for (m, (k, _)) in px.iter().enumerate() {
+        at[*k] = m as u32;
+    }
+    split_rows(buf, ROWS).into_par_iter().for_each(|mut b| {
+        for (n, &m) in at[b.i0 * w..b.i1 * w].iter().enumerate() {
+            if m == u32::MAX {
+                continue;
+            }
+            let p = &px[m as usize].1;
             // With coverage, a partly covered pixel is blended (the others
             // are written as without coverage).
             let a = (cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set))
                 .then(|| shade(p, shading, true));
-            write_pixel(&mut b, *k, p, a, shading);
+            write_pixel(&mut b, n, p, a, shading);
         }
-    }
+    });
 }
 
 /// The step q of the sub-row permutation m ↦ q·m mod k of the perspective
@@ -445,6 +477,21 @@ fn split_rows(buf: &mut Buffers, rows: usize) -> Vec<RowsMut<'_>> {
     out
 }
 
+/// [`Shading::colour`] without a call to `round` per channel: for x ≥ −½,
+/// `(x + ½) as u8` rounds half away from zero and saturates at 255 as
+/// `round().clamp(0, 255)` does (but for x within an ulp below k + ½);
+/// below, and for NaN, both give 0.
+#[inline]
+fn colour(shading: &Shading, intensity: f64, side: i8) -> [u8; 3] {
+    let base = if side >= 0 {
+        shading.upper
+    } else {
+        shading.under
+    };
+    let q = |c: f64| (c * intensity + 0.5) as u8;
+    [q(base[0]), q(base[1]), q(base[2])]
+}
+
 /// Write pixel k (row-major index within the block); `acc` is the
 /// supersampled colour and intensity when column supersampling is on.
 #[inline]
@@ -472,8 +519,7 @@ fn write_pixel(
     }
     if acc.is_none() {
         if let Some(rgb) = buf.rgb.as_mut() {
-            let c = shading.colour(p.inten, p.side);
-            rgb[3 * k..3 * k + 3].copy_from_slice(&c);
+            rgb[3 * k..3 * k + 3].copy_from_slice(&colour(shading, p.inten, p.side));
         }
         if let Some(v) = buf.intensity.as_mut() {
             v[k] = p.inten as f32;

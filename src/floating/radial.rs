@@ -90,14 +90,13 @@ pub fn render_radial(
     };
     // Bin and elevation of every pixel (rows in parallel), then a counting
     // sort by bin.
-    let per_px: Vec<(u32, f64)> = (0..h)
+    let per_px: Vec<(u32, f64)> = (0..w * h)
         .into_par_iter()
-        .flat_map_iter(|i| {
-            (0..w).map(move |j| {
-                let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
-                let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-                (bin_of(dir) as u32, fast_atan2(dir.z, hl))
-            })
+        .map(|k| {
+            let (i, j) = (k / w, k % w);
+            let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+            let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
+            (bin_of(dir) as u32, fast_atan2(dir.z, hl))
         })
         .collect();
     let mut start = vec![0usize; nb + 1];
@@ -124,7 +123,7 @@ pub fn render_radial(
         .map(|&b| {
             cancel.check()?;
             let mut bin: Vec<Ray> = rays[start[b]..start[b + 1]].to_vec();
-            bin.sort_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
+            bin.sort_unstable_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
             let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
             let mut sw = RadialSweep::new(ctx, phi, &bin);
             sw.off = off;
@@ -143,7 +142,7 @@ pub fn render_radial(
     let mut set = vec![false; w * h];
     let mut depth = vec![f64::NAN; w * h];
     let mut stats = ColumnStats::default();
-    let mut all = Vec::new();
+    let mut all = Vec::with_capacity(w * h);
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
@@ -151,11 +150,7 @@ pub fn render_radial(
             set[k] = p.set;
             depth[k] = p.depth;
         }
-        if all.is_empty() {
-            all = px;
-        } else {
-            all.extend(px);
-        }
+        all.extend(px);
     }
     fill_holes(ctx, off, &mut set, &mut depth, &mut all, &mut stats);
     if ctx.opts.coverage {
@@ -357,8 +352,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             cov: Default::default(),
             out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
-            jobs: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
-            job_side: Vec::with_capacity(if ctx.refine { rays.len() } else { 0 }),
+            jobs: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
+            job_side: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
             batch: Vec::new(),
@@ -690,20 +685,20 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             steps += 1;
             let (h_max0, mut hstep) = match &prev {
                 Some(a) => {
-                    let cap = opts.max_step * fp_at(a).max(1e-12 * scale);
+                    let cap = opts.max_step() * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
-                    let deep = self.cov.depth(a.rho) > 2.0 * opts.step;
+                    let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                     if !deep && r > 0.0 && r.is_finite() {
                         (
-                            (opts.step / r).min(cap),
-                            (super::column::AIM * opts.step / r).min(cap),
+                            (opts.step() / r).min(cap),
+                            (super::column::AIM * opts.step() / r).min(cap),
                         )
                     } else {
                         (cap, cap)
                     }
                 }
                 None => {
-                    let cap = opts.max_step * (rho.max(1e-9 * scale)) / ctx.cam.focal;
+                    let cap = opts.max_step() * (rho.max(1e-9 * scale)) / ctx.cam.focal;
                     (cap, cap)
                 }
             };
@@ -714,18 +709,18 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
-                        let hidden = gap > opts.step && self.hidden(&a, &b);
-                        if gap > opts.step
+                        let hidden = gap > opts.step() && self.hidden(&a, &b);
+                        if gap > opts.step()
                             && !hidden
                             && halvings < 40
                             && (rn - rho) > 1e-9 * fp_at(&a)
                         {
-                            hstep = (rn - rho) * (0.9 * opts.step / gap).clamp(0.05, 0.5);
+                            hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
                             h_max = hstep;
                             halvings += 1;
                             continue;
                         }
-                        let wall = gap > opts.step && !hidden;
+                        let wall = gap > opts.step() && !hidden;
                         if wall {
                             self.stats.walls += 1;
                         }
@@ -870,19 +865,48 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let ctx = self.ctx;
         let cam = ctx.cam;
         let e = cam.eye;
-        let dr = b.rho - a.rho;
-        let tau = if dr != 0.0 {
-            ((th - a.rho) / dr).clamp(0.0, 1.0)
-        } else {
-            0.5
-        };
         let pa = a.world(&ctx.frame);
         let pb = b.world(&ctx.frame);
-        let p = pa.lerp(pb, tau);
-        // The seed on the pixel's own ray: the point at p's distance.
-        let lam0 = (p - e).dot(dir).max(0.0);
-        let q0 = e + lam0 * dir;
+        // The point of the bin's plane at elevation θ: on the cubic through
+        // the two samples (horizontal distance and height with their exact
+        // slopes), or, where that cubic folds over (a silhouette between the
+        // samples), on the chord with an exact solve to follow.
+        let herm = if wall {
+            None
+        } else {
+            super::column::hermite_at(a, b, th)
+        };
+        let (tau, p) = match herm {
+            Some((tau, r, w)) => {
+                let h = DVec2::new(e.x, e.y) + r * self.eh;
+                (tau, DVec3::new(h.x, h.y, w + e.z))
+            }
+            None => {
+                let dr = b.rho - a.rho;
+                let tau = if dr != 0.0 {
+                    ((th - a.rho) / dr).clamp(0.0, 1.0)
+                } else {
+                    0.5
+                };
+                (tau, pa.lerp(pb, tau))
+            }
+        };
         let n_i = a.n.lerp(b.n, tau).normalize_or(a.n);
+        // The pixel's ray is up to half a pixel off the bin's plane: it
+        // meets the surface where it meets the tangent plane at p (to second
+        // order in that offset), unless it grazes that plane.
+        let dn = dir.dot(n_i);
+        let mut lam0 = (p - e).dot(dir).max(0.0);
+        let mut trusted = herm.is_some();
+        if trusted {
+            let l = (p - e).dot(n_i) / dn;
+            if dn.abs() > 0.15 && l.is_finite() && l > 0.0 {
+                lam0 = l;
+            } else {
+                trusted = false;
+            }
+        }
+        let q0 = e + lam0 * dir;
         // Upwards (θ increasing) reveals the upper side, in world terms.
         let topo: i8 = if b.rho > a.rho { 1 } else { -1 };
         let mut px = Pixel {
@@ -894,7 +918,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             inten: a.inten + tau * (b.inten - a.inten),
             cover: 1.0,
         };
-        let queued = ctx.refine && !wall;
+        let queued = !wall && (ctx.refine || (ctx.fallback && !trusted));
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;

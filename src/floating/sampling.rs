@@ -472,7 +472,7 @@ pub struct Ahead {
 }
 
 /// Most samples evaluated ahead in one batch.
-pub const AHEAD_MAX: usize = 32;
+pub const AHEAD_MAX: usize = 8;
 
 impl Default for Ahead {
     fn default() -> Self {

@@ -439,6 +439,7 @@ fn coverage_of_a_flat_square() {
             shading: &sh,
             opts: &opts,
             refine: false,
+            fallback: false,
         };
         let end = 0.5 - 2.0 * (1.0 - el.to_radians().sin());
         for j in 0..4 {

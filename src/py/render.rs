@@ -34,10 +34,10 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
         f.refine = v;
     }
     if let Some(v) = o.take("step")? {
-        f.step = v;
+        f.step = Some(v);
     }
     if let Some(v) = o.take("max_step")? {
-        f.max_step = v;
+        f.max_step = Some(v);
     }
     if let Some(v) = o.take("refine_tol")? {
         f.refine_tol = v;
@@ -101,9 +101,22 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 /// of `fcol.Image`. Options (unknown ones are a TypeError):
 ///
 /// * `shading`: "normal" (Phong, default) or "intensity" (Gouraud);
-/// * `refine` (True): solve each visible pixel exactly on its ray;
-/// * `step` (1.0): largest screen gap between samples, pixels;
-///   `max_step` (2.0): largest step along a sweep, in pixel footprints;
+/// * `refine` (True): solve each visible pixel exactly on its ray, seeded
+///   by the cubic through its span's two samples (heights and exact
+///   slopes): depth and normal errors are those of the solve (measured:
+///   depth ≤ 1e-4 px median, ≤ 1e-3 px p99; normal ≤ 1e-3° median,
+///   ≤ 0.05° p99), about one evaluation per visible pixel. `refine=False`
+///   takes the cubic's point instead (in perspective moved onto the
+///   pixel's own ray through the tangent plane there) and interpolates
+///   normals; only pixels whose span folds over or whose ray grazes are
+///   solved: depth stays within 0.02 px median, 0.5 px p99, normals
+///   carry the interpolation error (0.2° median on smooth surfaces, up to
+///   a few degrees on a grid's kinks); it saves about 10 % of the time
+///   (orthographic; little in perspective);
+/// * `step` (3.0; 1.0 with `coverage`): largest screen gap between
+///   samples, pixels; `max_step` (4.0; 2.0 with `coverage`): largest step
+///   along a sweep, in pixel footprints (step=1, max_step=2: the dense
+///   sweep, 1.5–2× the samples);
 /// * `ridges`, `bumps`, `jumps` (False): §5 detections; `correction`
 ///   ("supersample" or "spline"), `rate` (8), `threshold` (0.0625);
 ///   `walls` (True): shade steps as walls (§5.1);

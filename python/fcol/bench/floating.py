@@ -3,7 +3,9 @@
 grid meshes of increasing resolution), matplotlib's ``plot_surface`` drawn
 to an array, and the floor (NumPy evaluating f, f_u, f_v once per pixel).
 
-Rows: every column variant (shadings, corrections on and off) and the
+Rows: every column variant (the default: a sweep with samples up to 3
+pixels apart and every pixel solved on its ray; the dense sweep of the
+seed's step; shadings, corrections on and off) and the
 floating horizon at 480×477 and 1920×1080 with ``x_floor`` (time / NumPy
 floor); the mesh at 50² … 800² with its errors, ``mesh_over_fcol`` (cast
 only, mesh prebuilt) and ``mesh_new_over_fcol`` (tessellate + build + cast:
@@ -167,6 +169,7 @@ def numpy_floor(W: int, H: int) -> float:
 
 VARIANTS = {
     "column default (exact, normal)": dict(),
+    "column exact, dense sweep (step 1, max_step 2)": dict(step=1.0, max_step=2.0),
     "column nis (Phong, no refine)": dict(shading="normal", refine=False),
     "column iis (Gouraud, no refine)": dict(shading="intensity", refine=False),
     "column iis + ridges/bumps supersample": dict(shading="intensity", refine=False, ridges=True, bumps=True, jumps=True),
@@ -246,7 +249,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                 img = fcol.render(surf, view, w, h, outputs=outs, **opts)
                 t = median_time(lambda: fcol.render(surf, view, w, h, outputs=outs, **opts), repeat=repeat)
                 row = dict(method=label, view=vname, size=f"{w}x{h}", ms=1e3 * t, samples=img.samples,
-                           x_floor=t / floor[(w, h)])
+                           sweep_samples=int(img.stats["sweep_samples"]), x_floor=t / floor[(w, h)])
                 if ref is not None:
                     res = compare(img, ref, view)
                     row.update(mask_bad=res.get("mask_bad"), depth_p99=res.get("depth_px_p99"),

@@ -6,8 +6,9 @@ visible pixel solved exactly on its ray).
 
 The seed's artifacts need its coarse sampling: those pictures use
 ``step=8, max_step=8`` (samples up to 8 pixels apart on the screen), as the
-seed's 159 samples per column do; fcol's default keeps samples ≤ 1 pixel
-apart and solves each pixel exactly, so it has none of them."""
+seed's 159 samples per column do; fcol's default keeps samples ≤ 3 pixels
+apart, fits a cubic through each pair (heights and exact slopes) and solves
+each pixel exactly on its ray from it, so it has none of them."""
 
 from __future__ import annotations
 
@@ -48,7 +49,7 @@ def gallery(out_dir: Path) -> list[dict]:
          dict(shading="intensity", ridges=True, jumps=True, bumps=True, rate=16, **COARSE),
          "Fig. 14: bird's eye, local supersampling"),
         ("floating_default_ortho.png", surf, ortho, dict(),
-         "fcol default: samples ≤ 1 px apart, every pixel exact, Phong"),
+         "fcol default: samples ≤ 3 px apart, every pixel exact, Phong"),
         ("floating_default_bird.png", wide, bird, dict(), "fcol default, perspective bird's eye"),
         ("floating_default_ortho_aa4.png", surf, ortho, dict(antialias=4, coverage=True),
          "fcol default, anti-aliased (§6.4): 4 sub-columns × sub-pixel silhouette coverage along the column"),

@@ -1,0 +1,66 @@
+//! Timing harness for the floating column (no Python needed), on the bench
+//! surface 3 sin(u cos v) over [−5, 5]²:
+//! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
+//! with keys refine, step, max_step, tol (the options of `fcol.render`).
+
+use _fcol::camera::Projection;
+use _fcol::floating::{render_floating_column, FloatingOptions};
+use _fcol::shade::Shading;
+use _fcol::source::ExprHeight;
+use _fcol::surface::Domain;
+use _fcol::{Cancel, Outputs, View};
+use glam::DVec3;
+use std::time::Instant;
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let which = a.get(1).map_or("ortho", |v| v.as_str());
+    let num = |k: usize, d: usize| a.get(k).and_then(|v| v.parse().ok()).unwrap_or(d);
+    let (w, h, rep) = (num(2, 480), num(3, 477), num(4, 5));
+    let mut o = FloatingOptions::default();
+    for kv in a.iter().skip(5) {
+        let (k, v) = kv.split_once('=').expect("key=value");
+        match k {
+            "refine" => o.refine = v == "1" || v == "true",
+            "step" => o.step = Some(v.parse().unwrap()),
+            "max_step" => o.max_step = Some(v.parse().unwrap()),
+            _ => panic!("unknown option {k}"),
+        }
+    }
+    let view = if which == "persp" {
+        View {
+            elevation: 30.0,
+            azimuth: 40.0,
+            projection: Projection::Perspective {
+                distance: 24.0,
+                fov: 40.0,
+            },
+            target: DVec3::ZERO,
+        }
+    } else {
+        View {
+            elevation: 30.0,
+            azimuth: 30.0,
+            projection: Projection::Orthographic { view_height: 13.0 },
+            target: DVec3::ZERO,
+        }
+    };
+    let dom = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+    let f = ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, dom).unwrap();
+    let outs = Outputs::from_names(&["rgb", "depth", "normal", "mask"]).unwrap();
+    let sh = Shading::default();
+    let mut times = Vec::new();
+    let mut samples = 0;
+    for _ in 0..rep {
+        let t0 = Instant::now();
+        let b = render_floating_column(&f, &view, w, h, &outs, &sh, &o, &Cancel::new()).unwrap();
+        times.push(t0.elapsed().as_secs_f64());
+        samples = b.samples;
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "{which} {w}x{h}: median {:.2} ms, min {:.2} ms, samples {samples}",
+        1e3 * times[times.len() / 2],
+        1e3 * times[0]
+    );
+}
