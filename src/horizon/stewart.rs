@@ -36,7 +36,8 @@ use crate::error::Result;
 
 /// Index of the tangent vertex of upper hull `h` seen from `p` (strictly to
 /// its left): the highest elevation, ties to the nearer vertex. The
-/// elevations along an upper hull seen from outside are unimodal.
+/// elevations along an upper hull seen from outside are unimodal, and stay
+/// so with ties settled by distance, so `h` may be sorted by w either way.
 #[inline]
 pub fn tangent(h: &[Proj], p: Proj) -> usize {
     let (mut lo, mut hi) = (0usize, h.len() - 1);
@@ -73,6 +74,58 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
         end += 1;
     }
     while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) >= 0 {
+        pos -= 1;
+    }
+    if end == pos {
+        h.insert(pos, q);
+    } else {
+        h[pos] = q;
+        h.drain(pos + 1..end);
+    }
+}
+
+/// [`insert`] for a hull sorted by decreasing w (the same hull, reversed:
+/// mirroring w flips every orientation). In a merge the new point is most
+/// often the nearest so far (its a⊥ key is the largest yet), which is then a
+/// push at the end, or lies strictly under the hull between its end points,
+/// which the end points' heights show (an upper hull over [w_min, w_max] is
+/// concave, so it is nowhere lower than its lower end).
+#[inline]
+pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
+    let n = h.len();
+    if n == 0 {
+        h.push(q);
+        return;
+    }
+    let (far, near) = (h[0], h[n - 1]);
+    if q.w < near.w {
+        // a new nearest vertex: pop the vertices on or under segment q–h[k−2]
+        let mut k = n;
+        while k >= 2 && o3(h[k - 2], h[k - 1], q) <= 0 {
+            k -= 1;
+        }
+        h.truncate(k);
+        h.push(q);
+        return;
+    }
+    if q.w > near.w && q.w < far.w && q.zz < far.zz.min(near.zz) {
+        return; // strictly under the hull
+    }
+    let mut pos = h.partition_point(|v| v.w > q.w);
+    let mut end = pos;
+    if pos < n && h[pos].w == q.w {
+        if h[pos].zz >= q.zz {
+            return;
+        }
+        end = pos + 1;
+    }
+    if pos > 0 && end < n && o3(h[pos - 1], h[end], q) >= 0 {
+        return; // on or below the hull
+    }
+    while end + 1 < n && o3(q, h[end], h[end + 1]) <= 0 {
+        end += 1;
+    }
+    while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) <= 0 {
         pos -= 1;
     }
     if end == pos {
@@ -163,7 +216,7 @@ const ABSENT: Proj = Proj {
     zz: f64::NAN,
 };
 
-/// The upper hull of one node, with the bounds of every point inserted so
+/// The upper hull of one node (vertices by decreasing w), with the bounds of every point inserted so
 /// far: smallest and largest w, largest Z (the extreme points of a set are
 /// vertices of its hull).
 struct Hull {
@@ -186,7 +239,7 @@ impl Hull {
         self.wmin = self.wmin.min(q.w);
         self.wmax = self.wmax.max(q.w);
         self.zmax = self.zmax.max(q.zz);
-        insert(&mut self.h, q);
+        insert_desc(&mut self.h, q);
     }
 
     /// Can no point of this hull beat a current best of slope `bs` seen

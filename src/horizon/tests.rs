@@ -187,6 +187,33 @@ fn hull_insert_is_upper_hull() {
 }
 
 #[test]
+fn hull_insert_desc_is_insert_reversed() {
+    let mut r = rng(11);
+    for trial in 0..400 {
+        let (mut asc, mut desc) = (Vec::new(), Vec::new());
+        // Small integer ranges: many equal w, collinear triples and points
+        // on the hull; some sequences mostly by decreasing w (new nearest
+        // points), as in a merge.
+        let span = [4u64, 12, 40][trial % 3];
+        for i in 0..60u64 {
+            let w = if trial % 2 == 0 {
+                (r() % span) as f64
+            } else {
+                (span * 2) as f64 - (i / 2) as f64 - (r() % 3) as f64
+            };
+            let q = Proj {
+                w,
+                zz: (r() % span) as f64,
+            };
+            stewart::insert(&mut asc, q);
+            stewart::insert_desc(&mut desc, q);
+            let back: Vec<Proj> = desc.iter().rev().copied().collect();
+            assert_eq!(asc, back, "trial {trial} step {i}");
+        }
+    }
+}
+
+#[test]
 fn stewart_max_distance_equals_brute() {
     let mut r = rng(21);
     // Grids: anisotropic, north-up, with a hole and curvature.
