@@ -199,8 +199,8 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
 /// most `BLOCK`/2 ranks) keep no hull. Inside a block the covering sets met
 /// from rank k are the block's processed points of rank > k, whose maximum is
 /// taken directly: the tangent of a hull is the maximum of the points it was
-/// built from (§IV-B).
-const BLOCK: usize = 16;
+/// built from (§IV-B). 32 measured faster than 16 and as fast as 64.
+const BLOCK: usize = 32;
 
 /// A point on its way through the levels: its projection, its best horizon
 /// point so far (`ABSENT`: none) and its a⊥ rank (processing order).
@@ -329,10 +329,10 @@ fn leaf_block(r: &mut [Rec]) {
         *v = i as u8;
     }
     by_a[..len].sort_unstable_by_key(|&i| r[i as usize].a);
-    let mut done = 0u32; // bit k: rank k of the block processed
+    let mut done = 0u64; // bit k: rank k of the block processed
     for &i in &by_a[..len] {
         let i = i as usize;
-        let mut rest = done >> (i + 1);
+        let mut rest = done.checked_shr(i as u32 + 1).unwrap_or(0);
         let mut k = i + 1;
         let mut best = r[i].best;
         while rest != 0 {
