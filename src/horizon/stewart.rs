@@ -304,6 +304,7 @@ pub struct Work {
     count: Vec<u32>,
     rank: Vec<u32>,
     src: Vec<Rec>,
+    kin: Vec<u8>,
     dst: Vec<Rec>,
     hull: Hull,
 }
@@ -319,37 +320,30 @@ fn pick(p: Proj, best: Proj, c: Proj) -> Proj {
     }
 }
 
-/// One block of ranks (`r` in b⊥ order) by the definition: in a⊥ order, each
-/// point against the block's points already processed with a higher rank.
-/// Leaves the block in a⊥ order.
-fn leaf_block(r: &mut [Rec]) {
-    let len = r.len();
-    let mut by_a = [0u8; BLOCK];
-    for (i, v) in by_a[..len].iter_mut().enumerate() {
-        *v = i as u8;
+/// One block of ranks by the definition: `r` holds the block's points in a⊥
+/// order and `kin` their ranks inside the block; each point against the
+/// block's points already processed with a higher rank.
+fn leaf_block(r: &mut [Rec], kin: &[u8]) {
+    let mut at = [0u8; BLOCK]; // position in `r` of each rank
+    for (i, &k) in kin.iter().enumerate() {
+        at[k as usize] = i as u8;
     }
-    by_a[..len].sort_unstable_by_key(|&i| r[i as usize].a);
     let mut done = 0u64; // bit k: rank k of the block processed
-    for &i in &by_a[..len] {
-        let i = i as usize;
-        let mut rest = done.checked_shr(i as u32 + 1).unwrap_or(0);
-        let mut k = i + 1;
+    for (i, &k) in kin.iter().enumerate() {
+        let p = r[i].p;
         let mut best = r[i].best;
+        let mut rest = done >> (k + 1);
+        let mut kk = k as usize + 1;
         while rest != 0 {
             let step = rest.trailing_zeros() as usize;
-            k += step;
-            best = pick(r[i].p, best, r[k].p);
+            kk += step;
+            best = pick(p, best, r[at[kk] as usize].p);
             rest >>= step + 1;
-            k += 1;
+            kk += 1;
         }
         r[i].best = best;
-        done |= 1 << i;
+        done |= 1 << k;
     }
-    let mut out = [r[0]; BLOCK];
-    for (o, &i) in out.iter_mut().zip(&by_a[..len]) {
-        *o = r[i as usize];
-    }
-    r.copy_from_slice(&out[..len]);
 }
 
 /// One node of the tree: `src` holds its left subtree's points (lower
@@ -457,19 +451,38 @@ pub fn sector_with(
     sort_keys(&w.a, &w.b, &mut w.order, &mut w.count);
     // Second index: b⊥ ascending, ties a⊥ descending, then input order.
     sort_keys(&w.b, &w.a, &mut w.by_b, &mut w.count);
-    // a⊥ rank of every point
+    // b⊥ rank (leaf) of every point
     w.rank.clear();
     w.rank.resize(n, 0);
-    for (s, &i) in w.order.iter().enumerate() {
-        w.rank[i as usize] = s as u32;
+    for (k, &i) in w.by_b.iter().enumerate() {
+        w.rank[i as usize] = k as u32;
     }
-    // The points in b⊥ order: leaf k of the tree is w.src[k].
+    // The points by block of leaves, in a⊥ order inside each block (a
+    // counting scatter in a⊥ order), with their rank inside the block.
     w.src.clear();
-    w.src.extend(w.by_b.iter().map(|&i| Rec {
-        p: w.pr[i as usize],
-        best: ABSENT,
-        a: w.rank[i as usize],
-    }));
+    w.src.resize(
+        n,
+        Rec {
+            p: ABSENT,
+            best: ABSENT,
+            a: 0,
+        },
+    );
+    w.kin.clear();
+    w.kin.resize(n, 0);
+    w.count.clear();
+    w.count.resize(n.div_ceil(BLOCK), 0);
+    for (s, &i) in w.order.iter().enumerate() {
+        let k = w.rank[i as usize] as usize;
+        let pos = k / BLOCK * BLOCK + w.count[k / BLOCK] as usize;
+        w.count[k / BLOCK] += 1;
+        w.src[pos] = Rec {
+            p: w.pr[i as usize],
+            best: ABSENT,
+            a: s as u32,
+        };
+        w.kin[pos] = (k % BLOCK) as u8;
+    }
     w.dst.clear();
     w.dst.resize(n, w.src[0]);
     // The tree level by level from the leaves up, instead of point by point
@@ -479,8 +492,8 @@ pub fn sector_with(
     // apart in memory.
     let levels = (n.div_ceil(BLOCK)).next_power_of_two().trailing_zeros() as usize + 1;
     let share = n / levels;
-    for c in w.src.chunks_mut(BLOCK) {
-        leaf_block(c);
+    for (c, k) in w.src.chunks_mut(BLOCK).zip(w.kin.chunks(BLOCK)) {
+        leaf_block(c, k);
     }
     cancel.check()?;
     progress.add(share);
