@@ -46,6 +46,30 @@ fn stewart_equals_brute_random_points() {
 }
 
 #[test]
+fn stewart_equals_brute_around_block_sizes() {
+    // Sizes around the leaf block (32 ranks) and the merge widths above it,
+    // real-valued scattered points with repeated heights and a few exact
+    // duplicates of x or y.
+    let mut r = rng(19);
+    for n in [1usize, 2, 3, 31, 32, 33, 63, 64, 65, 96, 97, 129, 300] {
+        let mut unit = || (r() >> 11) as f64 / (1u64 << 53) as f64;
+        let (mut x, mut y, mut z) = (vec![], vec![], vec![]);
+        for i in 0..n {
+            let (a, b) = (unit() * 20.0, unit() * 20.0);
+            x.push(if i % 7 == 3 { x[0] } else { a });
+            y.push(if i % 11 == 5 { y[0] } else { b });
+            z.push((unit() * 6.0).floor());
+        }
+        let t = Terrain::from_points(x, y, z).unwrap();
+        for s in [3usize, 8, 64] {
+            let a = run(&t, &Options::new(s, Method::Brute));
+            let b = run(&t, &Options::new(s, Method::Stewart));
+            assert!(same_bits(&a, &b), "n {n} s {s}");
+        }
+    }
+}
+
+#[test]
 fn stewart_equals_brute_grid_nan_curvature() {
     let mut r = rng(3);
     let (h, w) = (13, 17);
