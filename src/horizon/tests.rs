@@ -70,6 +70,30 @@ fn stewart_equals_brute_around_block_sizes() {
 }
 
 #[test]
+fn sort_keys_is_the_exact_order() {
+    let mut r = rng(23);
+    let mut count = Vec::new();
+    for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000] {
+        // few distinct values (many ties on both keys), and spread values
+        for distinct in [3u64, 1 << 40] {
+            let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
+            let k2: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 - 7.0).collect();
+            let mut out = Vec::new();
+            stewart::sort_keys(&k1, &k2, &mut out, &mut count);
+            let mut want: Vec<u32> = (0..n as u32).collect();
+            want.sort_by(|&i, &j| {
+                let (i, j) = (i as usize, j as usize);
+                k1[i]
+                    .total_cmp(&k1[j])
+                    .then(k2[j].total_cmp(&k2[i]))
+                    .then(i.cmp(&j))
+            });
+            assert_eq!(out, want, "n {n} distinct {distinct}");
+        }
+    }
+}
+
+#[test]
 fn stewart_equals_brute_grid_nan_curvature() {
     let mut r = rng(3);
     let (h, w) = (13, 17);
