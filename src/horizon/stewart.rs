@@ -10,16 +10,20 @@
 //! input index (such a pair never shares a sector). With these orders p_{j,k}
 //! lies in sector Σ_{s,t} exactly when s > j and t < k (the Observation).
 //!
-//! The tree has a leaf C_k per second index, padded to a power of two N and
-//! stored heap-ordered: node m has children 2m and 2m+1 and leaves are
-//! N..2N−1. Only left children hold hulls (§IV-C), so the hull of the left
-//! child 2m lives in slot m: `hull[m]` holds the points of m's right subtree
-//! processed so far. Walking up from leaf C_k, each ancestor m is met either
-//! from its left subtree — then `hull[m]` is part of the covering set of
-//! Σ_{*,k} and is queried for its tangent — or from its right subtree — then
-//! the point joins `hull[m]` (the sectors Σ_{*,t}, t < k, of §IV-A step 2).
-//! A slot whose left subtree has no unprocessed leaf left is inactive: its
-//! hull is freed and receives nothing more (§IV-C). Hulls are sorted arrays
+//! The tree has a leaf C_k per second index. Node m with left subtree L and
+//! right subtree R holds the hull of R's points processed so far (§IV-C:
+//! only left children need hulls); when a point of L is processed that hull
+//! is part of the covering set of its sector and is queried for its tangent,
+//! and a point of R joins it (§IV-A step 2). The paper processes the points
+//! one by one in first-index order, walking each leaf-to-root path. Here the
+//! same work is done node by node, from the leaves up: a node sees its
+//! subtrees' points in first-index order by merging the two lists its
+//! children produced (a merge sort on the first index over the leaves in
+//! second-index order), so each of its hulls receives the same inserts and
+//! the same queries in the same order as in the paper, and every point ends
+//! with the maximum over the same covering sets. A level is one sequential
+//! pass over the points with one hull live at a time, where the paper's walk
+//! meets one node per level far apart in memory. Hulls are sorted arrays
 //! (the paper's choice; their average size stays below two points).
 //!
 //! The near-vertex check of §IV-E is applied by the caller (see
@@ -32,7 +36,8 @@ use crate::error::Result;
 
 /// Index of the tangent vertex of upper hull `h` seen from `p` (strictly to
 /// its left): the highest elevation, ties to the nearer vertex. The
-/// elevations along an upper hull seen from outside are unimodal.
+/// elevations along an upper hull seen from outside are unimodal, and stay
+/// so with ties settled by distance, so `h` may be sorted by w either way.
 #[inline]
 pub fn tangent(h: &[Proj], p: Proj) -> usize {
     let (mut lo, mut hi) = (0usize, h.len() - 1);
@@ -69,6 +74,58 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
         end += 1;
     }
     while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) >= 0 {
+        pos -= 1;
+    }
+    if end == pos {
+        h.insert(pos, q);
+    } else {
+        h[pos] = q;
+        h.drain(pos + 1..end);
+    }
+}
+
+/// [`insert`] for a hull sorted by decreasing w (the same hull, reversed:
+/// mirroring w flips every orientation). In a merge the new point is most
+/// often the nearest so far (its a⊥ key is the largest yet), which is then a
+/// push at the end, or lies strictly under the hull between its end points,
+/// which the end points' heights show (an upper hull over [w_min, w_max] is
+/// concave, so it is nowhere lower than its lower end).
+#[inline]
+pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
+    let n = h.len();
+    if n == 0 {
+        h.push(q);
+        return;
+    }
+    let (far, near) = (h[0], h[n - 1]);
+    if q.w < near.w {
+        // a new nearest vertex: pop the vertices on or under segment q–h[k−2]
+        let mut k = n;
+        while k >= 2 && o3(h[k - 2], h[k - 1], q) <= 0 {
+            k -= 1;
+        }
+        h.truncate(k);
+        h.push(q);
+        return;
+    }
+    if q.w > near.w && q.w < far.w && q.zz < far.zz.min(near.zz) {
+        return; // strictly under the hull
+    }
+    let mut pos = h.partition_point(|v| v.w > q.w);
+    let mut end = pos;
+    if pos < n && h[pos].w == q.w {
+        if h[pos].zz >= q.zz {
+            return;
+        }
+        end = pos + 1;
+    }
+    if pos > 0 && end < n && o3(h[pos - 1], h[end], q) >= 0 {
+        return; // on or below the hull
+    }
+    while end + 1 < n && o3(q, h[end], h[end + 1]) <= 0 {
+        end += 1;
+    }
+    while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) <= 0 {
         pos -= 1;
     }
     if end == pos {
@@ -138,42 +195,53 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
     }
 }
 
-/// Leaves per block: the hulls of the lowest `LOW` levels of the tree (a
-/// right subtree of at most 2^(LOW−1) leaves) are not kept. The points
-/// processed so far are stored at their leaf, and the covering sets met at
-/// those levels from leaf k are exactly the leaves k+1 .. end of k's block,
-/// whose maximum is taken directly: the tangent of a hull is the maximum of
-/// the points it was built from (§IV-B), and the block (16 points) is four cache
-/// lines instead of `LOW` nodes far apart.
-const LOW: u32 = 4;
-const BLOCK: usize = 1 << LOW;
-/// Points kept inline in a node (two cache lines); larger hulls spill.
-const INLINE: usize = 8;
-const PREFETCH_AHEAD: usize = 12;
-const SPILLED: u32 = u32::MAX;
+/// Ranks per leaf block: the lowest levels of the tree (right subtrees of at
+/// most `BLOCK`/2 ranks) keep no hull. Inside a block the covering sets met
+/// from rank k are the block's processed points of rank > k, whose maximum is
+/// taken directly: the tangent of a hull is the maximum of the points it was
+/// built from (§IV-B). 32 measured faster than 16 and as fast as 64.
+const BLOCK: usize = 32;
 
-/// The hull of a node, inline (128 bytes, two cache lines).
+/// A point on its way through the levels: its projection, its best horizon
+/// point so far (`ABSENT`: none) and its a⊥ rank (processing order).
 #[derive(Clone, Copy)]
-#[repr(C, align(64))]
-struct Pts([Proj; INLINE]);
+struct Rec {
+    p: Proj,
+    best: Proj,
+    a: u32,
+}
 
-/// Per-node counters, apart from the hulls so that the walk reads one small
-/// array at every level and touches a hull only when it is queried or grows.
-#[derive(Clone, Copy)]
-struct Meta {
-    /// Unprocessed leaves in the left subtree (0: inactive, §IV-C).
-    open: u32,
-    /// Inline hull length, or `SPILLED` (then `spill` names the vector).
-    len: u32,
-    spill: u32,
-    /// Bounds of every point inserted so far: smallest and largest w,
-    /// largest Z (the extreme points of a set are vertices of its hull).
+const ABSENT: Proj = Proj {
+    w: f64::NAN,
+    zz: f64::NAN,
+};
+
+/// The upper hull of one node (vertices by decreasing w), with the bounds of every point inserted so
+/// far: smallest and largest w, largest Z (the extreme points of a set are
+/// vertices of its hull).
+struct Hull {
+    h: Vec<Proj>,
     wmin: f64,
     wmax: f64,
     zmax: f64,
 }
 
-impl Meta {
+impl Hull {
+    fn clear(&mut self) {
+        self.h.clear();
+        self.wmin = f64::INFINITY;
+        self.wmax = f64::NEG_INFINITY;
+        self.zmax = f64::NEG_INFINITY;
+    }
+
+    #[inline]
+    fn add(&mut self, q: Proj) {
+        self.wmin = self.wmin.min(q.w);
+        self.wmax = self.wmax.max(q.w);
+        self.zmax = self.zmax.max(q.zz);
+        insert_desc(&mut self.h, q);
+    }
+
     /// Can no point of this hull beat a current best of slope `bs` seen
     /// from `p`? Its slopes (Z − Z_p)/(w − w_p) are at most the bound
     /// below; the margin (1e-12 relative) is far above the few rounding
@@ -190,12 +258,37 @@ impl Meta {
         let bound = num / den;
         bound < bs - 1e-12 * (bound.abs() + bs.abs())
     }
+
+    /// The best of `r.best` and this hull's tangent point for `r.p`.
+    #[inline]
+    fn query(&self, r: &mut Rec) {
+        let p = r.p;
+        // Slope of the best so far (−∞: none): skip a hull that cannot beat
+        // it without searching it.
+        let bs = if r.best.w > p.w {
+            (r.best.zz - p.zz) / (r.best.w - p.w)
+        } else {
+            f64::NEG_INFINITY
+        };
+        if self.cannot_beat(p, bs) {
+            return;
+        }
+        r.best = pick(p, r.best, self.h[tangent(&self.h, p)]);
+    }
 }
 
-const ABSENT: Proj = Proj {
-    w: f64::NAN,
-    zz: f64::NAN,
-};
+impl Default for Hull {
+    fn default() -> Hull {
+        let mut h = Hull {
+            h: Vec::new(),
+            wmin: 0.0,
+            wmax: 0.0,
+            zmax: 0.0,
+        };
+        h.clear();
+        h
+    }
+}
 
 /// Buffers of one sector computation, reused across the sectors a thread
 /// computes (the allocation and first touch of ~100 MB per sector at n = 1M
@@ -210,161 +303,82 @@ pub struct Work {
     by_b: Vec<u32>,
     count: Vec<u32>,
     rank: Vec<u32>,
-    seq: Vec<(Proj, u32)>,
-    leaf: Vec<Proj>,
-    meta: Vec<Meta>,
-    pts: Vec<Pts>,
-    spill: Vec<Vec<Proj>>,
-    free: Vec<u32>,
+    src: Vec<Rec>,
+    kin: Vec<u8>,
+    dst: Vec<Rec>,
+    hull: Hull,
 }
 
+/// The best of `best` (`ABSENT`: none) and `c` for `p` (exact; ties to the
+/// nearer point).
 #[inline]
-fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch hint never faults.
-    unsafe {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch(p as *const i8, _MM_HINT_T0);
+fn pick(p: Proj, best: Proj, c: Proj) -> Proj {
+    if best.w.is_nan() || better(p, best, c) {
+        c
+    } else {
+        best
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }
 
-/// Insert `q` into the inline hull `h[..*len]` (same rules as [`insert`]);
-/// false when the result would exceed `INLINE` points (`h` is unchanged).
-#[inline]
-fn insert_inline(h: &mut [Proj; INLINE], len: &mut u32, q: Proj) -> bool {
-    let n = *len as usize;
-    let mut pos = h[..n].partition_point(|v| v.w < q.w);
-    let mut end = pos;
-    if pos < n && h[pos].w == q.w {
-        if h[pos].zz >= q.zz {
-            return true;
+/// One block of ranks by the definition: `r` holds the block's points in a⊥
+/// order and `kin` their ranks inside the block; each point against the
+/// block's points already processed with a higher rank.
+fn leaf_block(r: &mut [Rec], kin: &[u8]) {
+    let mut at = [0u8; BLOCK]; // position in `r` of each rank
+    for (i, &k) in kin.iter().enumerate() {
+        at[k as usize] = i as u8;
+    }
+    let mut done = 0u64; // bit k: rank k of the block processed
+    for (i, &k) in kin.iter().enumerate() {
+        let p = r[i].p;
+        let mut best = r[i].best;
+        let mut rest = done >> (k + 1);
+        let mut kk = k as usize + 1;
+        while rest != 0 {
+            let step = rest.trailing_zeros() as usize;
+            kk += step;
+            best = pick(p, best, r[at[kk] as usize].p);
+            rest >>= step + 1;
+            kk += 1;
         }
-        end = pos + 1;
+        r[i].best = best;
+        done |= 1 << k;
     }
-    if pos > 0 && end < n && o3(h[pos - 1], h[end], q) <= 0 {
-        return true;
-    }
-    while end + 1 < n && o3(q, h[end], h[end + 1]) >= 0 {
-        end += 1;
-    }
-    while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) >= 0 {
-        pos -= 1;
-    }
-    // h[pos..end] is replaced by q.
-    let m = n - (end - pos) + 1;
-    if m > INLINE {
-        return false;
-    }
-    let mut out = [ABSENT; INLINE];
-    out[..pos].copy_from_slice(&h[..pos]);
-    out[pos] = q;
-    out[pos + 1..m].copy_from_slice(&h[end..n]);
-    *h = out;
-    *len = m as u32;
-    true
 }
 
-impl Work {
-    /// Reset the tree for `n` points (ranks 0..n).
-    fn reset_tree(&mut self, n: usize) -> usize {
-        let big_n = n.next_power_of_two().max(BLOCK);
-        self.leaf.clear();
-        self.leaf.resize(big_n, ABSENT);
-        // The tree over blocks: node m (1 ≤ m < nb) with children 2m, 2m+1,
-        // blocks nb..2nb−1. open[m] = real leaves (k < n) under the left
-        // child 2m, whose blocks are [m·2^t − nb, m·2^t − nb + 2^(t−1)).
-        let nb = big_n / BLOCK;
-        self.meta.clear();
-        self.meta.resize(
-            nb.max(1),
-            Meta {
-                open: 0,
-                len: 0,
-                spill: 0,
-                wmin: f64::INFINITY,
-                wmax: f64::NEG_INFINITY,
-                zmax: f64::NEG_INFINITY,
-            },
-        );
-        let log_nb = nb.trailing_zeros();
-        for (m, md) in self.meta.iter_mut().enumerate().skip(1) {
-            let t = log_nb - m.ilog2();
-            let start = ((m << t) - nb) * BLOCK;
-            let span = (1usize << (t - 1)) * BLOCK;
-            md.open = n.saturating_sub(start).min(span) as u32;
-        }
-        if self.pts.len() < nb.max(1) {
-            self.pts.resize(nb.max(1), Pts([ABSENT; INLINE]));
-        }
-        for v in &mut self.spill {
-            v.clear();
-        }
-        self.free.clear();
-        self.free.extend((0..self.spill.len() as u32).rev());
-        nb
-    }
-
-    #[inline]
-    fn hull(&self, m: usize) -> &[Proj] {
-        let md = &self.meta[m];
-        if md.len == SPILLED {
-            &self.spill[md.spill as usize]
+/// One node of the tree: `src` holds its left subtree's points (lower
+/// ranks) then its right subtree's, each in a⊥ order. Merging them in a⊥
+/// order into `dst`, the right points join the hull (§IV-A step 2) and each
+/// left point queries the hull of the right points before it (the covering
+/// set of its sector at this node, step 1).
+fn merge(src: &[Rec], mid: usize, dst: &mut [Rec], hull: &mut Hull) {
+    let (left, right) = src.split_at(mid);
+    hull.clear();
+    let (mut i, mut j, mut o) = (0, 0, 0);
+    while i < left.len() && j < right.len() {
+        if right[j].a < left[i].a {
+            hull.add(right[j].p);
+            dst[o] = right[j];
+            j += 1;
         } else {
-            &self.pts[m].0[..md.len as usize]
-        }
-    }
-
-    #[inline]
-    fn close_one(&mut self, m: usize) {
-        let md = &mut self.meta[m];
-        md.open -= 1;
-        if md.open == 0 {
-            if md.len == SPILLED {
-                self.spill[md.spill as usize].clear();
-                self.free.push(md.spill);
+            let mut r = left[i];
+            if !hull.h.is_empty() {
+                hull.query(&mut r);
             }
-            md.len = 0;
+            dst[o] = r;
+            i += 1;
         }
+        o += 1;
     }
-
-    #[inline]
-    fn insert(&mut self, m: usize, q: Proj) {
-        let md = &mut self.meta[m];
-        md.wmin = md.wmin.min(q.w);
-        md.wmax = md.wmax.max(q.w);
-        md.zmax = md.zmax.max(q.zz);
-        if md.len == SPILLED {
-            insert(&mut self.spill[md.spill as usize], q);
-            return;
+    for &l in &left[i..] {
+        let mut r = l;
+        if !hull.h.is_empty() {
+            hull.query(&mut r);
         }
-        if insert_inline(&mut self.pts[m].0, &mut md.len, q) {
-            return;
-        }
-        let id = match self.free.pop() {
-            Some(id) => id,
-            None => {
-                self.spill.push(Vec::new());
-                (self.spill.len() - 1) as u32
-            }
-        };
-        let v = &mut self.spill[id as usize];
-        v.clear();
-        v.extend_from_slice(&self.pts[m].0[..md.len as usize]);
-        insert(v, q);
-        md.len = SPILLED;
-        md.spill = id;
+        dst[o] = r;
+        o += 1;
     }
-}
-
-/// The best of `best` and `c` for `p` (exact; ties to the nearer point).
-#[inline]
-fn pick(p: Proj, best: Option<Proj>, c: Proj) -> Option<Proj> {
-    match best {
-        Some(bq) if !better(p, bq, c) => Some(bq),
-        _ => Some(c),
-    }
+    dst[o..].copy_from_slice(&right[j..]);
 }
 
 /// One sector for every point (`plane` has one value per terrain point).
@@ -408,6 +422,7 @@ pub fn release() {
 }
 
 /// [`sector`] with caller-provided buffers.
+/// [`sector`] with caller-provided buffers.
 pub fn sector_with(
     t: &Terrain,
     f: &Frame,
@@ -436,91 +451,82 @@ pub fn sector_with(
     sort_keys(&w.a, &w.b, &mut w.order, &mut w.count);
     // Second index: b⊥ ascending, ties a⊥ descending, then input order.
     sort_keys(&w.b, &w.a, &mut w.by_b, &mut w.count);
+    // b⊥ rank (leaf) of every point
     w.rank.clear();
     w.rank.resize(n, 0);
     for (k, &i) in w.by_b.iter().enumerate() {
         w.rank[i as usize] = k as u32;
     }
-    // The points in processing order with their leaf, read sequentially.
-    w.seq.clear();
-    w.seq.extend(
-        w.order
-            .iter()
-            .map(|&i| (w.pr[i as usize], w.rank[i as usize])),
+    // The points by block of leaves, in a⊥ order inside each block (a
+    // counting scatter in a⊥ order), with their rank inside the block.
+    w.src.clear();
+    w.src.resize(
+        n,
+        Rec {
+            p: ABSENT,
+            best: ABSENT,
+            a: 0,
+        },
     );
-    let nb = w.reset_tree(n);
+    w.kin.clear();
+    w.kin.resize(n, 0);
+    w.count.clear();
+    w.count.resize(n.div_ceil(BLOCK), 0);
+    for (s, &i) in w.order.iter().enumerate() {
+        let k = w.rank[i as usize] as usize;
+        let pos = k / BLOCK * BLOCK + w.count[k / BLOCK] as usize;
+        w.count[k / BLOCK] += 1;
+        w.src[pos] = Rec {
+            p: w.pr[i as usize],
+            best: ABSENT,
+            a: s as u32,
+        };
+        w.kin[pos] = (k % BLOCK) as u8;
+    }
+    w.dst.clear();
+    w.dst.resize(n, w.src[0]);
+    // The tree level by level from the leaves up, instead of point by point
+    // from the root down (the same hulls meet the same queries, so the same
+    // answers): each level is one sequential pass, and only one hull is
+    // live at a time, instead of one walk per point through nodes far
+    // apart in memory.
+    let levels = (n.div_ceil(BLOCK)).next_power_of_two().trailing_zeros() as usize + 1;
+    let share = n / levels;
+    for (c, k) in w.src.chunks_mut(BLOCK).zip(w.kin.chunks(BLOCK)) {
+        leaf_block(c, k);
+    }
+    cancel.check()?;
+    progress.add(share);
+    let mut width = BLOCK;
+    while width < n {
+        for (s, d) in w.src.chunks(2 * width).zip(w.dst.chunks_mut(2 * width)) {
+            if s.len() > width {
+                merge(s, width, d, &mut w.hull);
+            } else {
+                d.copy_from_slice(s);
+            }
+        }
+        std::mem::swap(&mut w.src, &mut w.dst);
+        width *= 2;
+        cancel.check()?;
+        progress.add(share);
+    }
+    // w.src is now in a⊥ order: w.src[s].a == s.
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));
-    for step in 0..n {
-        if step % 4096 == 4095 {
-            cancel.check()?;
-            progress.add(4096);
-        }
-        // The walk is bound by memory latency (one slot per level, far
-        // apart): fetch the block and slots of a point a few steps ahead.
-        if let Some(&(_, ka)) = w.seq.get(step + PREFETCH_AHEAD) {
-            let ka = ka as usize;
-            // the block's lines from k to its end (4 points per line)
-            let mut kk = ka;
-            while kk <= (ka | (BLOCK - 1)) {
-                prefetch(w.leaf.as_ptr().wrapping_add(kk));
-                kk = (kk | 3) + 1;
+    for (r, &i) in w.src.iter().zip(&w.order) {
+        let i = ids[i as usize];
+        let best = match &limit {
+            Some(lim) if !r.best.w.is_nan() && !lim.surely_within(r.p, r.best) => {
+                lim.search(i, r.p)
             }
-            let mut x = nb + ka / BLOCK;
-            while x > 1 {
-                prefetch(w.meta.as_ptr().wrapping_add(x >> 1));
-                prefetch(w.pts.as_ptr().wrapping_add(x >> 1));
-                x >>= 1;
-            }
-        }
-        let (p, k) = w.seq[step];
-        let k = k as usize;
-        let mut best: Option<Proj> = None;
-        // Lowest levels: the processed leaves after k in its block.
-        for &c in &w.leaf[k + 1..(k | (BLOCK - 1)) + 1] {
-            if !c.w.is_nan() {
-                best = pick(p, best, c);
-            }
-        }
-        w.leaf[k] = p;
-        // Slope of the best so far (−∞: none), to skip hulls that cannot
-        // beat it without reading them.
-        let slope = |b: Option<Proj>| match b {
-            Some(q) if q.w > p.w => (q.zz - p.zz) / (q.w - p.w),
-            _ => f64::NEG_INFINITY,
+            _ => (!r.best.w.is_nan()).then_some(r.best),
         };
-        let mut bs = slope(best);
-        let mut x = nb + k / BLOCK;
-        while x > 1 {
-            let m = x >> 1;
-            if x & 1 == 0 {
-                // Step 1: the left child's hull covers part of Σ_{*,k}.
-                let md = &w.meta[m];
-                if md.len != 0 && !md.cannot_beat(p, bs) {
-                    let h = w.hull(m);
-                    let nbest = pick(p, best, h[tangent(h, p)]);
-                    if nbest != best {
-                        best = nbest;
-                        bs = slope(best);
-                    }
-                }
-                w.close_one(m);
-            } else if w.meta[m].open > 0 {
-                // Step 2: join the covering sets of Σ_{*,t}, t < k.
-                w.insert(m, p);
-            }
-            x = m;
-        }
-        let i = w.order[step] as usize;
-        let best = match (&limit, best) {
-            (Some(lim), Some(q)) if !lim.surely_within(p, q) => lim.search(ids[i], p),
-            (_, b) => b,
-        };
-        plane[ids[i]] = match best {
+        plane[i] = match best {
             None => EMPTY,
-            Some(q) => elevation(p, q, o.curvature),
+            Some(q) => elevation(r.p, q, o.curvature),
         };
     }
-    progress.add(n % 4096);
+    progress.add(n - share * (levels));
     w.ids = ids;
     Ok(())
 }
@@ -638,7 +644,7 @@ impl<'a> Limit<'a> {
     fn search(&self, ip: usize, p: Proj) -> Option<Proj> {
         let (t, f) = (self.t, self.f);
         let (ka, kb) = (f.key_a(t.kx[ip], t.ky[ip]), f.key_b(t.kx[ip], t.ky[ip]));
-        let mut best: Option<Proj> = None;
+        let mut best = ABSENT;
         let mut visit = |q: usize| {
             if q == ip || !t.z[q].is_finite() {
                 return;
@@ -699,7 +705,7 @@ impl<'a> Limit<'a> {
             }
             (None, None) => (0..t.len()).for_each(visit),
         }
-        best
+        (!best.w.is_nan()).then_some(best)
     }
 }
 

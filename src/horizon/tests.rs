@@ -46,6 +46,54 @@ fn stewart_equals_brute_random_points() {
 }
 
 #[test]
+fn stewart_equals_brute_around_block_sizes() {
+    // Sizes around the leaf block (32 ranks) and the merge widths above it,
+    // real-valued scattered points with repeated heights and a few exact
+    // duplicates of x or y.
+    let mut r = rng(19);
+    for n in [1usize, 2, 3, 31, 32, 33, 63, 64, 65, 96, 97, 129, 300] {
+        let mut unit = || (r() >> 11) as f64 / (1u64 << 53) as f64;
+        let (mut x, mut y, mut z) = (vec![], vec![], vec![]);
+        for i in 0..n {
+            let (a, b) = (unit() * 20.0, unit() * 20.0);
+            x.push(if i % 7 == 3 { x[0] } else { a });
+            y.push(if i % 11 == 5 { y[0] } else { b });
+            z.push((unit() * 6.0).floor());
+        }
+        let t = Terrain::from_points(x, y, z).unwrap();
+        for s in [3usize, 8, 64] {
+            let a = run(&t, &Options::new(s, Method::Brute));
+            let b = run(&t, &Options::new(s, Method::Stewart));
+            assert!(same_bits(&a, &b), "n {n} s {s}");
+        }
+    }
+}
+
+#[test]
+fn sort_keys_is_the_exact_order() {
+    let mut r = rng(23);
+    let mut count = Vec::new();
+    for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000] {
+        // few distinct values (many ties on both keys), and spread values
+        for distinct in [3u64, 1 << 40] {
+            let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
+            let k2: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 - 7.0).collect();
+            let mut out = Vec::new();
+            stewart::sort_keys(&k1, &k2, &mut out, &mut count);
+            let mut want: Vec<u32> = (0..n as u32).collect();
+            want.sort_by(|&i, &j| {
+                let (i, j) = (i as usize, j as usize);
+                k1[i]
+                    .total_cmp(&k1[j])
+                    .then(k2[j].total_cmp(&k2[i]))
+                    .then(i.cmp(&j))
+            });
+            assert_eq!(out, want, "n {n} distinct {distinct}");
+        }
+    }
+}
+
+#[test]
 fn stewart_equals_brute_grid_nan_curvature() {
     let mut r = rng(3);
     let (h, w) = (13, 17);
@@ -182,6 +230,33 @@ fn hull_insert_is_upper_hull() {
                 let (a, b) = (h[k - 1], h[k]);
                 assert!(exact::orient((a.w, a.zz), (b.w, b.zz), (p.w, p.zz)) <= 0);
             }
+        }
+    }
+}
+
+#[test]
+fn hull_insert_desc_is_insert_reversed() {
+    let mut r = rng(11);
+    for trial in 0..400 {
+        let (mut asc, mut desc) = (Vec::new(), Vec::new());
+        // Small integer ranges: many equal w, collinear triples and points
+        // on the hull; some sequences mostly by decreasing w (new nearest
+        // points), as in a merge.
+        let span = [4u64, 12, 40][trial % 3];
+        for i in 0..60u64 {
+            let w = if trial % 2 == 0 {
+                (r() % span) as f64
+            } else {
+                (span * 2) as f64 - (i / 2) as f64 - (r() % 3) as f64
+            };
+            let q = Proj {
+                w,
+                zz: (r() % span) as f64,
+            };
+            stewart::insert(&mut asc, q);
+            stewart::insert_desc(&mut desc, q);
+            let back: Vec<Proj> = desc.iter().rev().copied().collect();
+            assert_eq!(asc, back, "trial {trial} step {i}");
         }
     }
 }

@@ -1,8 +1,9 @@
 """Horizon maps: Stewart's Table I and Fig. 7 on this machine (time against
 the number of points n at s = 64 for stewart, cms, sweep and brute, with the
 fitted growth exponents), the fastest line-sampling tool that installs
-(topocalc's ``horizon``, at the same number of directions) in the same run,
-the speed-up on all cores, peak memory, hull sizes, the spike test's share
+(topocalc's ``horizon``, at the same number of directions) in the same run
+at 1024², each timed in a fresh process with the machine's load average
+beside it, the speed-up on all cores against one, peak memory, hull sizes, the spike test's share
 of points that see the spike, and the sky-view factor of matplotlib's
 ``jacksboro_fault_dem.npz`` against topocalc's ``viewf``; and the sky
 light and sun shadows of ``HorizonMap`` (Rust, per point) against their
@@ -72,37 +73,45 @@ def _topocalc_all(th: Any, z: np.ndarray, spacing: float, n: int) -> list[np.nda
 
 def _child(code: str, threads: int | None = None) -> dict[str, Any]:
     env = dict(os.environ)
-    if threads is not None:
-        env["RAYON_NUM_THREADS"] = str(threads)
+    env["RAYON_NUM_THREADS"] = str(threads if threads is not None else os.cpu_count() or 1)
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
     return json.loads(out.strip().splitlines()[-1])  # type: ignore[no-any-return]
 
 
+# One timed call in a fresh process: wall and CPU seconds (all threads),
+# peak resident memory (VmHWM), and the 1-minute load average before and
+# after (other work on the machine inflates the wall time).
 CHILD = """
-import json, time, numpy as np, fcol
-from fcol.bench.horizon import _terrain
+import json, os, time, numpy as np, fcol
+from fcol.bench.horizon import _terrain, _topocalc, _topocalc_all
 z = _terrain({side})
+th = _topocalc() if {method!r} == "topocalc" else None
+load0 = os.getloadavg()[0]
 c0 = time.process_time(); t0 = time.perf_counter()
-fcol.horizon_map(z, 1.0, sectors={s}, method={method!r})
+if th is not None:
+    _topocalc_all(th, z, 1.0, {s})
+else:
+    fcol.horizon_map(z, 1.0, sectors={s}, method={method!r})
 t = time.perf_counter() - t0; c = time.process_time() - c0
-# VmHWM (peak resident set of this process image; ru_maxrss survives exec)
 hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM")]
 peak = int(hwm[0].split()[1]) / 1024 if hwm else float("nan")
-print(json.dumps(dict(seconds=t, cpu=c, maxrss_mb=peak)))
+print(json.dumps(dict(seconds=t, cpu=c, maxrss_mb=peak, load=[load0, os.getloadavg()[0]])))
 """
+
+
+def _in_child(method: str, side: int, threads: int | None = None) -> dict[str, Any]:
+    return _child(CHILD.format(side=side, s=S, method=method), threads)
 
 
 def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
     out_dir = Path(out_dir)
     rows: list[dict[str, Any]] = []
-    # Sizes shared with the topocalc comparison below, which reuses these
-    # timings (same run, same terrain). brute stops at n = 3136 (n = 1e4
-    # takes ~20 s) and cms at n = 31684 (~20 s), so that the section stays
-    # near five minutes.
+    # brute stops at n = 3136 (n = 1e4 takes ~20 s) and cms at n = 31684
+    # (~20 s), so that the section stays near five minutes.
     sides = [32, 56, 100, 178, 316, 512, 1024] if not quick else [32, 56, 100, 178, 256]
     limits = {"brute": 56, "cms": 178 if not quick else 100, "stewart": 1024, "sweep": 1024}
     times: dict[str, list[tuple[int, float]]] = {m: [] for m in limits}
-    measured: dict[tuple[str, int], tuple[float, float]] = {}
+    cpus: dict[str, list[tuple[int, float]]] = {m: [] for m in limits}
     for side in sides:
         z = _terrain(side)
         n = side * side
@@ -111,53 +120,71 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
                 continue
             t, cpu = _time_cpu(lambda: fcol.horizon_map(z, 1.0, sectors=S, method=m), budget=2.0)
             times[m].append((n, t))
-            measured[(m, side)] = (t, cpu)
+            cpus[m].append((n, cpu))
             rows.append({"table": "I", "n": n, "method": m, "seconds": t, "cpu_seconds": cpu, "ns_per_point_dir": t * 1e9 / (n * S)})
-    fits = {}
-    for m, pts in times.items():
+
+    def fit(pts: list[tuple[int, float]]) -> float | None:
         big = [(n, t) for n, t in pts if n >= 3000] or pts
-        if len(big) >= 2:
-            k, _ = np.polyfit(np.log([p[0] for p in big]), np.log([p[1] for p in big]), 1)
-            fits[m] = float(k)
-            rows.append({"table": "Fig7", "method": m, "growth_exponent": float(k), "seed": {"stewart": 1.1, "cms": 1.6, "brute": 2.0}.get(m, "")})
+        if len(big) < 2:
+            return None
+        return float(np.polyfit(np.log([p[0] for p in big]), np.log([p[1] for p in big]), 1)[0])
+
+    fits = {}
+    for m in times:
+        k = fit(times[m])
+        if k is not None:
+            fits[m] = k
+            rows.append({"table": "Fig7", "method": m, "growth_exponent": k, "growth_exponent_cpu": fit(cpus[m]), "seed": {"stewart": 1.1, "cms": 1.6, "brute": 2.0}.get(m, "")})
     # crossover stewart vs cms
-    st, cm = dict(times["stewart"]), dict(times["cms"])
-    common = sorted(set(st) & set(cm))
-    cross = next((n for n in common if st[n] < cm[n]), None)
+    st_t, cm_t = dict(times["stewart"]), dict(times["cms"])
+    common = sorted(set(st_t) & set(cm_t))
+    cross = next((n for n in common if st_t[n] < cm_t[n]), None)
     rows.append({"table": "Fig7", "method": "stewart<cms from n", "growth_exponent": cross if cross is not None else "beyond range"})
 
-    # line-sampling tool, same run, same terrain, same directions
+    # The line-sampling tool beside stewart and sweep, each timed in a fresh
+    # process (RAYON_NUM_THREADS = all cores for fcol; topocalc is one
+    # thread), interleaved stewart, topocalc, stewart so that a change in
+    # the machine's load shows as a spread between the two stewart runs; the
+    # ratios use their mean. CPU-time ratios are less sensitive to other
+    # work on the machine than wall-time ratios.
     th = _topocalc()
-    cmp_sides = [512, 1024] if not quick else [256]
-    for side in cmp_sides:
-        z = _terrain(side)
-        n = side * side
-        rec: dict[str, Any] = {"table": "vs-topocalc", "n": n, "directions": S}
-        # Table I's measurement when it has this size (same run, same terrain)
-        t_st, c_st = measured.get(("stewart", side)) or _time_cpu(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="stewart"), 5.0)
-        t_sw, c_sw = measured.get(("sweep", side)) or _time_cpu(lambda: fcol.horizon_map(z, 1.0, sectors=S, method="sweep"), 5.0)
-        rec.update(stewart_s=t_st, sweep_s=t_sw, stewart_cpu_s=c_st, sweep_cpu_s=c_sw)
-        if th is not None:
-            t_tc, c_tc = _time_cpu(lambda: _topocalc_all(th, z, 1.0, S), 5.0)
-            rec.update(
-                topocalc_s=t_tc, topocalc_cpu_s=c_tc, topocalc_ns_per_point_dir=t_tc * 1e9 / (n * S),
-                stewart_speedup=t_tc / t_st, sweep_speedup=t_tc / t_sw,
-                stewart_cpu_ratio=c_tc / c_st, sweep_cpu_ratio=c_tc / c_sw,
-            )
-        else:
-            rec["topocalc_s"] = "not installed"
-        rows.append(rec)
+    side = 1024 if not quick else 256
+    n = side * side
+    st = [_in_child("stewart", side)]
+    tc = _in_child("topocalc", side) if th is not None else None
+    st.append(_in_child("stewart", side))
+    sw = _in_child("sweep", side)
+    t_st, c_st = (float(np.mean([r[k] for r in st])) for k in ("seconds", "cpu"))
+    rec: dict[str, Any] = {
+        "table": "vs-topocalc", "n": n, "directions": S, "threads": os.cpu_count(),
+        "stewart_s": t_st, "stewart_s_runs": [r["seconds"] for r in st], "stewart_cpu_s": c_st,
+        "sweep_s": sw["seconds"], "sweep_cpu_s": sw["cpu"],
+        "stewart_peak_mb": max(r["maxrss_mb"] for r in st), "sweep_peak_mb": sw["maxrss_mb"],
+        "load_1min": [round(r["load"][0], 2) for r in st[:1] + ([tc] if tc else []) + st[1:] + [sw]],
+    }
+    if tc is not None:
+        rec.update(
+            topocalc_s=tc["seconds"], topocalc_cpu_s=tc["cpu"], topocalc_peak_mb=tc["maxrss_mb"],
+            topocalc_ns_per_point_dir=tc["seconds"] * 1e9 / (n * S),
+            stewart_speedup=tc["seconds"] / t_st, sweep_speedup=tc["seconds"] / sw["seconds"],
+            stewart_cpu_ratio=tc["cpu"] / c_st, sweep_cpu_ratio=tc["cpu"] / sw["cpu"],
+        )
+    else:
+        rec["topocalc_s"] = "not installed"
+    rows.append(rec)
 
-    # cores, CPU per point and direction, peak memory (child processes)
-    for m, side in (("sweep", 1024), ("stewart", 256)) if not quick else (("sweep", 256), ("stewart", 256)):
-        one = _child(CHILD.format(side=side, s=S, method=m), threads=1)
-        alln = _child(CHILD.format(side=side, s=S, method=m))
+    # 1 thread against all cores, CPU per point and direction (fresh
+    # processes; the all-core runs are the ones above)
+    for m, alln in (("sweep", sw), ("stewart", st[0])):
+        one = _in_child(m, side, threads=1)
         rows.append({
-            "table": "cores", "method": m, "n": side * side,
+            "table": "cores", "method": m, "n": n, "threads": os.cpu_count(),
             "seconds_1_thread": one["seconds"], "seconds_all": alln["seconds"],
             "speedup": one["seconds"] / alln["seconds"],
-            "cpu_ns_per_point_dir_1_thread": one["cpu"] * 1e9 / (side * side * S),
-            "peak_rss_mb": alln["maxrss_mb"],
+            "cpu_ns_per_point_dir_1_thread": one["cpu"] * 1e9 / (n * S),
+            "cpu_ns_per_point_dir_all": alln["cpu"] * 1e9 / (n * S),
+            "peak_rss_mb_1_thread": one["maxrss_mb"], "peak_rss_mb_all": alln["maxrss_mb"],
+            "load_1min": round(one["load"][0], 2),
         })
     side = 512 if not quick else 256
     mean_h, max_h = fcol._fcol.horizon_hull_stats(_terrain(side), 1.0, 1.0, S, 5)
