@@ -16,6 +16,7 @@
 //! seeds its trackers afresh, so the output does not depend on the number
 //! of threads.
 
+pub mod folds;
 pub mod maxima;
 pub mod screen;
 pub mod shapes;
@@ -55,6 +56,9 @@ pub struct Options {
     pub extrapolate: bool,
     /// Scan lines per parallel band.
     pub band: usize,
+    /// Let the safety net add trackers the tracking missed (after the
+    /// first scan line of a band). Off only to check the tracking alone.
+    pub safety_net: bool,
 }
 
 impl Default for Options {
@@ -64,6 +68,7 @@ impl Default for Options {
             grid: 97,
             extrapolate: true,
             band: 16,
+            safety_net: true,
         }
     }
 }
@@ -161,6 +166,7 @@ pub fn render(
     let x_left = -0.5 * width as f64;
     let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
     let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
+    let folds = folds::find_folds(&sc, opts.grid.min(129));
     // Depth unit of the sampled scan's cross-section angle: one pixel at
     // the view distance.
     let zs = match view.projection {
@@ -179,7 +185,8 @@ pub fn render(
     let results: Vec<Result<BandOut>> = bands
         .par_iter()
         .map(|&(r0, r1)| {
-            let yscan = YScan::new(&sc, x_left, opts.extrapolate);
+            let mut yscan = YScan::new(&sc, x_left, opts.extrapolate);
+            yscan.rescue = opts.safety_net;
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
             xscan.cancel = Some(cancel);
@@ -208,6 +215,7 @@ pub fn render(
                     i == r0,
                     &maxima.maxima,
                     &saddles,
+                    &folds,
                     &net,
                     &mut seeds,
                     &mut st.y,
@@ -257,6 +265,8 @@ pub fn render(
     b.stat("created_at_maxima", y.created_maxima as f64);
     b.stat("created_at_folds", y.created_fold as f64);
     b.stat("created_at_saddles", y.created_saddles as f64);
+    b.stat("curtain_folds", folds.len() as f64);
+    b.stat("created_at_curtain_folds", y.created_curtain as f64);
     b.stat("net_added", y.net_added as f64);
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);

@@ -31,6 +31,7 @@
 //! crossing without a tracker is refined by the same Newton iteration and
 //! added (counted in the statistics as `net_added`).
 
+use super::folds::Fold;
 use super::maxima::{MaxKind, Maximum};
 use super::screen::{Screen, ScreenSample};
 use crate::surface::Domain;
@@ -71,6 +72,8 @@ pub struct YStats {
     pub created_fold: u64,
     /// Silhouette trackers started at saddles of y (§3.2.2.4).
     pub created_saddles: u64,
+    /// Silhouette trackers started below curtain folds (§3.4).
+    pub created_curtain: u64,
     /// Trackers the safety net had to add on a scan line after the first of
     /// a band.
     pub net_added: u64,
@@ -88,6 +91,7 @@ impl YStats {
         self.created_maxima += o.created_maxima;
         self.created_fold += o.created_fold;
         self.created_saddles += o.created_saddles;
+        self.created_curtain += o.created_curtain;
         self.net_added += o.net_added;
         self.band_seeds += o.band_seeds;
     }
@@ -95,11 +99,11 @@ impl YStats {
 
 /// A segment of a curve traced by marching squares, with y at its ends.
 #[derive(Debug, Clone, Copy)]
-struct Seg {
-    a: (f64, f64),
-    b: (f64, f64),
-    ya: f64,
-    yb: f64,
+pub(super) struct Seg {
+    pub a: (f64, f64),
+    pub b: (f64, f64),
+    pub ya: f64,
+    pub yb: f64,
 }
 
 /// The coarse picture of the tracked curves (the safety net).
@@ -124,7 +128,7 @@ pub fn edge_point(d: &Domain, e: u8, t: f64) -> (f64, f64) {
     }
 }
 
-fn march(n: usize, us: &[f64], vs: &[f64], g: &[f64], y: &[f64]) -> Vec<Seg> {
+pub(super) fn march(n: usize, us: &[f64], vs: &[f64], g: &[f64], y: &[f64]) -> Vec<Seg> {
     let mut segs = Vec::new();
     let idx = |i: usize, k: usize| k * n + i;
     for k in 0..n - 1 {
@@ -398,6 +402,9 @@ pub struct YScan<'a> {
     pub x_left: f64,
     pub ext: f64,
     pub extrapolate: bool,
+    /// Let the safety net add trackers after the first scan line of a band
+    /// (off only to check that the tracking finds every curve alone).
+    pub rescue: bool,
 }
 
 impl<'a> YScan<'a> {
@@ -408,6 +415,7 @@ impl<'a> YScan<'a> {
             x_left,
             ext: (d.u1 - d.u0).max(d.v1 - d.v0),
             extrapolate,
+            rescue: true,
         }
     }
 
@@ -561,6 +569,7 @@ impl<'a> YScan<'a> {
         first: bool,
         maxima: &[Maximum],
         saddles: &[ScreenSample],
+        folds: &[Fold],
         net: &Net,
         seeds: &mut Vec<(Kind, f64, f64)>,
         st: &mut YStats,
@@ -655,6 +664,18 @@ impl<'a> YScan<'a> {
                         }
                     }
                 }
+                MaxKind::EdgeEnd(e) => {
+                    let yt = if e < 2 { m.s.yv } else { m.s.yu };
+                    if yt != 0.0 {
+                        let dt = (ys - m.y) / yt;
+                        let (u, v) = if e < 2 {
+                            (m.u, m.v + dt)
+                        } else {
+                            (m.u + dt, m.v)
+                        };
+                        cands.push((Kind::Edge(e), u, v));
+                    }
+                }
                 MaxKind::Corner(eu, ev) => {
                     // Along edge eu (u fixed) v moves; along ev (v fixed) u moves.
                     if m.s.yv != 0.0 {
@@ -704,9 +725,31 @@ impl<'a> YScan<'a> {
                 }
             }
         }
+        // §3.4 curtain folds: a maximum of y along the silhouette starts
+        // two silhouette trackers below it.
+        for f in folds {
+            let dy = f.s.y - ys;
+            if !(0.0..8.0).contains(&dy) {
+                continue;
+            }
+            for (u, v) in f.starts(ys) {
+                if let Some((s, _, _)) = self.solve(Kind::Sil, u, v, ys) {
+                    if !out.iter().any(|o| same(o, Kind::Sil, &s)) {
+                        st.created_curtain += 1;
+                        out.push(Tracker {
+                            kind: Kind::Sil,
+                            s,
+                            prev: None,
+                        });
+                    }
+                }
+            }
+        }
         // Safety net.
         seeds.clear();
-        net.seeds(&d, ys, seeds);
+        if first || self.rescue {
+            net.seeds(&d, ys, seeds);
+        }
         for &(kind, u, v) in seeds.iter() {
             if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
                 if !out.iter().any(|o| same(o, kind, &s)) {

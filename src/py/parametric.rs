@@ -165,6 +165,9 @@ fn render_parametric_py<'py>(
     if let Some(e) = o.take::<bool>("extrapolate")? {
         opts.extrapolate = e;
     }
+    if let Some(e) = o.take::<bool>("safety_net")? {
+        opts.safety_net = e;
+    }
     o.finish("render(method=\"scanline\")")?;
     let v = view.view;
     let t0 = std::time::Instant::now();
