@@ -267,6 +267,7 @@ pub fn render(
     b.stat("created_at_saddles", y.created_saddles as f64);
     b.stat("curtain_folds", folds.len() as f64);
     b.stat("created_at_curtain_folds", y.created_curtain as f64);
+    b.stat("created_at_left_border", y.created_left as f64);
     b.stat("net_added", y.net_added as f64);
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);

@@ -74,6 +74,9 @@ pub struct YStats {
     pub created_saddles: u64,
     /// Silhouette trackers started below curtain folds (§3.4).
     pub created_curtain: u64,
+    /// Left-border trackers started where a tracked curve crossed the
+    /// left image border.
+    pub created_left: u64,
     /// Trackers the safety net had to add on a scan line after the first of
     /// a band.
     pub net_added: u64,
@@ -92,6 +95,7 @@ impl YStats {
         self.created_fold += o.created_fold;
         self.created_saddles += o.created_saddles;
         self.created_curtain += o.created_curtain;
+        self.created_left += o.created_left;
         self.net_added += o.net_added;
         self.band_seeds += o.band_seeds;
     }
@@ -559,6 +563,36 @@ impl<'a> YScan<'a> {
         }
     }
 
+    /// Starting guesses of the two border trackers where the level curve
+    /// through silhouette point q (an extremum of x along the level curve)
+    /// meets x = x_left: along the curve c(s), c' = t = (−y_v, y_u)/|∇y|,
+    /// c'' = −(tᵀH_y t) ∇y/|∇y|², x(s) ≈ x_q + ½ s² (tᵀH_x t + ∇x·c'').
+    fn left_starts(&self, q: &ScreenSample) -> [(f64, f64); 2] {
+        let g2 = q.yu * q.yu + q.yv * q.yv;
+        let l = g2.sqrt();
+        if l.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return [(q.u, q.v); 2];
+        }
+        let (tu, tv) = (-q.yv / l, q.yu / l);
+        let quad = |a: f64, b: f64, c: f64| a * tu * tu + 2.0 * b * tu * tv + c * tv * tv;
+        let ky = -quad(q.yuu, q.yuv, q.yvv) / g2;
+        let (cu, cv) = (ky * q.yu, ky * q.yv);
+        let xss = quad(q.xuu, q.xuv, q.xvv) + q.xu * cu + q.xv * cv;
+        let a2 = 2.0 * (self.x_left - q.x) / xss;
+        let a = if a2.is_finite() && a2 > 0.0 {
+            a2.sqrt()
+        } else {
+            0.0
+        };
+        let at = |s: f64| {
+            (
+                q.u + s * tu + 0.5 * s * s * cu,
+                q.v + s * tv + 0.5 * s * s * cv,
+            )
+        };
+        [at(a), at(-a)]
+    }
+
     /// Advance all trackers to scan line `ys` and create new ones; `first`
     /// marks the first scan line of a band (no previous trackers).
     #[allow(clippy::too_many_arguments)]
@@ -618,6 +652,28 @@ impl<'a> YScan<'a> {
                                     out.push(Tracker {
                                         kind: Kind::Sil,
                                         s: fs,
+                                        prev: None,
+                                    });
+                                }
+                            }
+                        }
+                    }
+                    // The level curve crossed the left image border: a
+                    // boundary tracker passing it starts a border tracker,
+                    // a silhouette tracker passing it two.
+                    if (s.x < self.x_left) != (t.s.x < self.x_left) {
+                        let starts: Vec<(f64, f64)> = match t.kind {
+                            Kind::Edge(_) => vec![(s.u, s.v)],
+                            Kind::Sil => self.left_starts(&s).to_vec(),
+                            Kind::Left => Vec::new(),
+                        };
+                        for (u, v) in starts {
+                            if let Some((ls, _, _)) = self.solve(Kind::Left, u, v, ys) {
+                                if !out.iter().any(|o| same(o, Kind::Left, &ls)) {
+                                    st.created_left += 1;
+                                    out.push(Tracker {
+                                        kind: Kind::Left,
+                                        s: ls,
                                         prev: None,
                                     });
                                 }
@@ -695,6 +751,21 @@ impl<'a> YScan<'a> {
                             s,
                             prev: None,
                         });
+                        // A silhouette inside the new piece: J changed
+                        // sign between the maximum and its boundary
+                        // tracker (§3.2.2.3 at creation).
+                        if matches!(kind, Kind::Edge(_)) && (s.jac() < 0.0) != (m.s.jac() < 0.0) {
+                            if let Some((fs, _, _)) = self.solve(Kind::Sil, s.u, s.v, ys) {
+                                if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                                    st.created_fold += 1;
+                                    out.push(Tracker {
+                                        kind: Kind::Sil,
+                                        s: fs,
+                                        prev: None,
+                                    });
+                                }
+                            }
+                        }
                     }
                 }
             }
