@@ -167,6 +167,7 @@ pub fn render(
     let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
     let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
     let folds = folds::find_folds(&sc, opts.grid.min(129));
+    let seams = trackers::seams(&sc);
     // Depth unit of the sampled scan's cross-section angle: one pixel at
     // the view distance.
     let zs = match view.projection {
@@ -187,6 +188,7 @@ pub fn render(
         .map(|&(r0, r1)| {
             let mut yscan = YScan::new(&sc, x_left, opts.extrapolate);
             yscan.rescue = opts.safety_net;
+            yscan.seams = seams;
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
             xscan.cancel = Some(cancel);
@@ -268,6 +270,7 @@ pub fn render(
     b.stat("curtain_folds", folds.len() as f64);
     b.stat("created_at_curtain_folds", y.created_curtain as f64);
     b.stat("created_at_left_border", y.created_left as f64);
+    b.stat("created_at_seams", y.created_seam as f64);
     b.stat("net_added", y.net_added as f64);
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);

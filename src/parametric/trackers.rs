@@ -14,22 +14,28 @@
 //! Between scan lines each tracker is updated by Newton from its previous
 //! position, extrapolated from the two previous ones (§3.5). Trackers are
 //! created at the local maxima of y the scan passes (second-order start
-//! §3.2.2.2), where a boundary tracker's J changes sign (folded edge
-//! §3.2.2.3), and deleted when Newton fails to converge (minima §3.2.3) or a
-//! silhouette tracker leaves the patch.
+//! §3.2.2.2) — interior, along an edge (whichever way y moves into the
+//! patch: where it rises inwards an interior level curve is cut by the
+//! edge), at an edge's end and at corners —, where a boundary tracker's J
+//! changes sign (folded edge §3.2.2.3, also between a new edge piece and
+//! its maximum), below curtain folds (§3.4, [`super::folds`]), across a
+//! closed surface's seam, and where a tracked curve crosses the left image
+//! border; they are deleted when Newton fails to converge (minima §3.2.3)
+//! or a silhouette tracker leaves the patch.
 //!
 //! Silhouette trackers are also started at saddles of y where y has a
 //! maximum along the silhouette (§3.2.2.4).
 //!
-//! Safety net: tracking alone still misses some level-curve pieces — born at
-//! curtain folds (§3.4), at stationary points on a patch edge, or lost by a
-//! failed update near a minimum (the statistics `net_added` count them: 0 to
-//! 12 per 96×72 render over the test surfaces, so the net stays). Every scan line the
-//! curves are therefore also intersected with a coarse precomputed picture
-//! of them — y sampled along each boundary edge, and the silhouette and the
-//! left-border curve traced by marching squares over a grid — and every
-//! crossing without a tracker is refined by the same Newton iteration and
-//! added (counted in the statistics as `net_added`).
+//! Safety net: every scan line the curves are also intersected with a
+//! coarse precomputed picture of them — y sampled along each boundary edge,
+//! and the silhouette and the left-border curve traced by marching squares
+//! over a grid — and every crossing without a tracker is refined by the
+//! same Newton iteration and added (`net_added`). It seeds the first scan
+//! line of each band; after that it is a fallback: over the 23 test views
+//! at 96×72 it adds 4 trackers in all (a pole on the silhouette, a
+//! silhouette born at a Bézier patch corner, a silhouette at the left
+//! border with the eye close to the surface), and with it switched off
+//! (`safety_net=False`) 21 of them render without a mask error.
 
 use super::folds::Fold;
 use super::maxima::{MaxKind, Maximum};
@@ -77,6 +83,8 @@ pub struct YStats {
     /// Left-border trackers started where a tracked curve crossed the
     /// left image border.
     pub created_left: u64,
+    /// Silhouette trackers continued across a seam.
+    pub created_seam: u64,
     /// Trackers the safety net had to add on a scan line after the first of
     /// a band.
     pub net_added: u64,
@@ -96,6 +104,7 @@ impl YStats {
         self.created_saddles += o.created_saddles;
         self.created_curtain += o.created_curtain;
         self.created_left += o.created_left;
+        self.created_seam += o.created_seam;
         self.net_added += o.net_added;
         self.band_seeds += o.band_seeds;
     }
@@ -375,6 +384,39 @@ impl Net {
     }
 }
 
+/// Whether the edges u0 and u1 (v0 and v1) are the same curve, point by
+/// point: the seam of a closed surface. Checked at 9 points per edge.
+pub fn seams(sc: &Screen<'_>) -> (bool, bool) {
+    let d = sc.dom;
+    let k = 9;
+    let mut us = Vec::new();
+    let mut vs = Vec::new();
+    for i in 0..k {
+        let f = (i as f64 + 0.37) / k as f64;
+        let (u, v) = (d.u0 + f * (d.u1 - d.u0), d.v0 + f * (d.v1 - d.v0));
+        us.extend([d.u0, d.u1, u, u]);
+        vs.extend([v, v, d.v0, d.v1]);
+    }
+    let mut p = vec![crate::surface::ParamSample::default(); us.len()];
+    sc.surf.eval_batch(&us, &vs, &mut p);
+    let scale = p
+        .iter()
+        .map(|s| s.p.abs().max_element())
+        .fold(0.0f64, f64::max);
+    let same = |a: usize, b: usize| {
+        p[a].p.is_finite()
+            && p[b].p.is_finite()
+            && (p[a].p - p[b].p).abs().max_element() <= 1e-9 * scale
+    };
+    let mut su = true;
+    let mut sv = true;
+    for i in 0..k {
+        su &= same(4 * i, 4 * i + 1);
+        sv &= same(4 * i + 2, 4 * i + 3);
+    }
+    (su, sv)
+}
+
 /// Starting guesses of the two silhouette trackers below a stationary
 /// point q of y where y has a maximum along the silhouette (§3.2.2.2):
 /// the level curve ½ΔᵀH_yΔ = ys − y_q meets the silhouette line ∇J·Δ = 0.
@@ -406,6 +448,8 @@ pub struct YScan<'a> {
     pub x_left: f64,
     pub ext: f64,
     pub extrapolate: bool,
+    /// Edges u0/u1 (and v0/v1) are the same curve (a closed surface).
+    pub seams: (bool, bool),
     /// Let the safety net add trackers after the first scan line of a band
     /// (off only to check that the tracking finds every curve alone).
     pub rescue: bool,
@@ -419,6 +463,7 @@ impl<'a> YScan<'a> {
             x_left,
             ext: (d.u1 - d.u0).max(d.v1 - d.v0),
             extrapolate,
+            seams: (false, false),
             rescue: true,
         }
     }
@@ -593,6 +638,40 @@ impl<'a> YScan<'a> {
         [at(a), at(-a)]
     }
 
+    /// Starting guess on edge e below a maximum m at the edge's end (a
+    /// corner): the step s ≥ 0 into the edge with y_t σ s + ½ y_tt s² =
+    /// ys − y_m (σ = ±1 into the edge), to second order because y_t may
+    /// be small there (the end of a seam edge, a nearby minimum).
+    fn into_edge(&self, m: &Maximum, e: u8, ys: f64) -> Option<(f64, f64)> {
+        let d = self.sc.dom;
+        let (yt, ytt) = if e < 2 {
+            (m.s.yv, m.s.yvv)
+        } else {
+            (m.s.yu, m.s.yuu)
+        };
+        let at_start = if e < 2 { m.v <= d.v0 } else { m.u <= d.u0 };
+        let sg = if at_start { 1.0 } else { -1.0 };
+        let (a, b, c) = (0.5 * ytt, sg * yt, m.y - ys);
+        let step = if a.abs() * c.abs() <= 1e-12 * b * b {
+            -c / b
+        } else {
+            let q = (b * b - 4.0 * a * c).sqrt();
+            [(-b + q) / (2.0 * a), (-b - q) / (2.0 * a)]
+                .into_iter()
+                .filter(|r| r.is_finite() && *r >= 0.0)
+                .fold(f64::NAN, f64::min)
+        };
+        if !(step.is_finite() && step >= 0.0) {
+            return None;
+        }
+        let dt = sg * step;
+        Some(if e < 2 {
+            (m.u, m.v + dt)
+        } else {
+            (m.u + dt, m.v)
+        })
+    }
+
     /// Advance all trackers to scan line `ys` and create new ones; `first`
     /// marks the first scan line of a band (no previous trackers).
     #[allow(clippy::too_many_arguments)]
@@ -688,10 +767,36 @@ impl<'a> YScan<'a> {
                 }
                 None => {
                     let inside = d.contains(gu, gv);
-                    if t.kind == Kind::Sil && !inside {
-                        st.exited += 1;
-                    } else {
+                    if t.kind != Kind::Sil || inside {
                         st.lost += 1;
+                        continue;
+                    }
+                    st.exited += 1;
+                    // Across a closed surface's seam the silhouette goes on
+                    // from the twin edge.
+                    let (pu, pv) = (d.u1 - d.u0, d.v1 - d.v0);
+                    let mut twin = (gu, gv);
+                    if self.seams.0 && gu < d.u0 {
+                        twin.0 += pu;
+                    } else if self.seams.0 && gu > d.u1 {
+                        twin.0 -= pu;
+                    }
+                    if self.seams.1 && gv < d.v0 {
+                        twin.1 += pv;
+                    } else if self.seams.1 && gv > d.v1 {
+                        twin.1 -= pv;
+                    }
+                    if twin != (gu, gv) && d.contains(twin.0, twin.1) {
+                        if let Some((s, _, _)) = self.solve(Kind::Sil, twin.0, twin.1, ys) {
+                            if !out.iter().any(|o| same(o, Kind::Sil, &s)) {
+                                st.created_seam += 1;
+                                out.push(Tracker {
+                                    kind: Kind::Sil,
+                                    s,
+                                    prev: None,
+                                });
+                            }
+                        }
                     }
                 }
             }
@@ -721,29 +826,27 @@ impl<'a> YScan<'a> {
                     }
                 }
                 MaxKind::EdgeEnd(e) => {
-                    let yt = if e < 2 { m.s.yv } else { m.s.yu };
-                    if yt != 0.0 {
-                        let dt = (ys - m.y) / yt;
-                        let (u, v) = if e < 2 {
-                            (m.u, m.v + dt)
-                        } else {
-                            (m.u + dt, m.v)
-                        };
+                    if let Some((u, v)) = self.into_edge(m, e, ys) {
                         cands.push((Kind::Edge(e), u, v));
                     }
                 }
                 MaxKind::Corner(eu, ev) => {
-                    // Along edge eu (u fixed) v moves; along ev (v fixed) u moves.
-                    if m.s.yv != 0.0 {
-                        cands.push((Kind::Edge(eu), m.u, m.v + (ys - m.y) / m.s.yv));
-                    }
-                    if m.s.yu != 0.0 {
-                        cands.push((Kind::Edge(ev), m.u + (ys - m.y) / m.s.yu, m.v));
+                    for e in [eu, ev] {
+                        if let Some((u, v)) = self.into_edge(m, e, ys) {
+                            cands.push((Kind::Edge(e), u, v));
+                        }
                     }
                 }
             }
+            let mut made = 0;
+            let mut missed = Vec::new();
             for (kind, u, v) in cands {
-                if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
+                let r = self.solve(kind, u, v, ys);
+                if r.is_none() {
+                    missed.push((u, v));
+                }
+                if let Some((s, _, _)) = r {
+                    made += 1;
                     if !out.iter().any(|o| same(o, kind, &s)) {
                         st.created_maxima += 1;
                         out.push(Tracker {
@@ -755,7 +858,11 @@ impl<'a> YScan<'a> {
                         // sign between the maximum and its boundary
                         // tracker (§3.2.2.3 at creation).
                         if matches!(kind, Kind::Edge(_)) && (s.jac() < 0.0) != (m.s.jac() < 0.0) {
-                            if let Some((fs, _, _)) = self.solve(Kind::Sil, s.u, s.v, ys) {
+                            let mid = (0.5 * (s.u + m.u), 0.5 * (s.v + m.v));
+                            let fs = self
+                                .solve(Kind::Sil, s.u, s.v, ys)
+                                .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
+                            if let Some((fs, _, _)) = fs {
                                 if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
                                     st.created_fold += 1;
                                     out.push(Tracker {
@@ -766,6 +873,25 @@ impl<'a> YScan<'a> {
                                 }
                             }
                         }
+                    }
+                }
+            }
+            // A corner piece with one boundary end only: its other end is
+            // a silhouette point (y along the second edge turned up again).
+            if let (MaxKind::Corner(..), 1, [(u, v)]) = (m.kind, made, missed.as_slice()) {
+                let (u, v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
+                let mid = (0.5 * (u + m.u), 0.5 * (v + m.v));
+                let fs = self
+                    .solve(Kind::Sil, u, v, ys)
+                    .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
+                if let Some((fs, _, _)) = fs {
+                    if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                        st.created_fold += 1;
+                        out.push(Tracker {
+                            kind: Kind::Sil,
+                            s: fs,
+                            prev: None,
+                        });
                     }
                 }
             }
