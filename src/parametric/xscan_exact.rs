@@ -355,7 +355,8 @@ impl<'a> XScan<'a> {
     }
 
     /// One predictor–corrector step along the level curve from q in the
-    /// direction s·(−y_v, y_u), about a quarter pixel long.
+    /// direction s·(−y_v, y_u), about a pixel long (shorter where the
+    /// tangent turns by more than ~25°: the corrector's check).
     fn advance(
         &self,
         q: &ScreenSample,
@@ -375,7 +376,7 @@ impl<'a> XScan<'a> {
         let (tu, tv) = (tu / l, tv / l);
         let speed = (q.p.pu * tu + q.p.pv * tv).length() / cam.pixel_size_at(q.z);
         let mut h = if speed > 0.0 {
-            0.25 / speed
+            1.0 / speed
         } else {
             f64::INFINITY
         };
