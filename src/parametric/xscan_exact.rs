@@ -13,7 +13,7 @@
 //! of a piece (a silhouette, where J → 0 and Newton's basin shrinks) and
 //! wherever a Newton step fails its checks (no convergence, the wrong sign
 //! of J, an implausible jump), the scan falls back to predictor–corrector
-//! continuation along the level curve in steps of a quarter pixel, which
+//! continuation along the level curve in steps of about a pixel, which
 //! brackets the pixel and refines it by Newton or bisection, or finds the
 //! end of the piece (x turns back, or the curve leaves the patch).
 
