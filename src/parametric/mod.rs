@@ -192,6 +192,7 @@ pub fn render(
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
             xscan.cancel = Some(cancel);
+            xscan.first_order = !sampled;
             if let XScanMode::Sampled {
                 per_turn,
                 max_error,

@@ -139,6 +139,9 @@ pub struct XScan<'a> {
     /// the cross-section angle, and the normal-angle trackers of the band.
     pub zs: f64,
     pub pool: std::cell::RefCell<super::xscan_sampled::Pool>,
+    /// Evaluate pixel solves to first order only (the exact scan: nothing
+    /// downstream of them reads second derivatives).
+    pub first_order: bool,
     /// Solve runs of pixels together, one evaluation batch per Newton round
     /// (surfaces whose single-point evaluation is dear: Python callables).
     pub batch: bool,
@@ -157,6 +160,7 @@ impl<'a> XScan<'a> {
             zs: 1.0,
             pool: Default::default(),
             batch: !sc.surf.cheap_point_eval(),
+            first_order: false,
         }
     }
 
@@ -175,6 +179,16 @@ impl<'a> XScan<'a> {
             self.width
         } else {
             j as usize
+        }
+    }
+
+    /// The evaluation of pixel solves (first order in the exact scan).
+    #[inline]
+    fn ev(&self, u: f64, v: f64) -> Option<ScreenSample> {
+        if self.first_order {
+            self.sc.eval_first(u, v)
+        } else {
+            self.sc.eval(u, v)
         }
     }
 
@@ -204,7 +218,7 @@ impl<'a> XScan<'a> {
         let d = self.sc.dom;
         let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
         for _ in 0..12 {
-            let s = self.sc.eval(u, v)?;
+            let s = self.ev(u, v)?;
             let f = s.y - ys;
             let g = s.x - xp;
             let det = s.jac();
@@ -258,7 +272,11 @@ impl<'a> XScan<'a> {
             bv.clear();
             bu.extend(active.iter().map(|a| a.1));
             bv.extend(active.iter().map(|a| a.2));
-            let ss = self.sc.eval_batch(&bu, &bv);
+            let ss = if self.first_order {
+                self.sc.eval_first_batch(&bu, &bv)
+            } else {
+                self.sc.eval_batch(&bu, &bv)
+            };
             let mut next = Vec::with_capacity(active.len());
             for (&(i, u, v), s) in active.iter().zip(ss) {
                 let Some(s) = s else { continue };
@@ -294,7 +312,7 @@ impl<'a> XScan<'a> {
     fn project(&self, mut u: f64, mut v: f64, ys: f64) -> Option<ScreenSample> {
         let d = self.sc.dom;
         for _ in 0..10 {
-            let s = self.sc.eval(u, v)?;
+            let s = self.ev(u, v)?;
             let f = s.y - ys;
             let g2 = s.yu * s.yu + s.yv * s.yv;
             if f.abs() < 1e-10 {
@@ -314,7 +332,7 @@ impl<'a> XScan<'a> {
             u = nu;
             v = nv;
         }
-        let s = self.sc.eval(u, v)?;
+        let s = self.ev(u, v)?;
         ((s.y - ys).abs() < 1e-6).then_some(s)
     }
 
