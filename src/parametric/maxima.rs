@@ -329,7 +329,7 @@ fn edge_maxima(sc: &Screen<'_>, m: usize, out: &mut MaximaList) {
         }
         for k in 1..m - 1 {
             let (a, b, c) = (ys[k - 1], ys[k], ys[k + 1]);
-            if !(a.is_finite() && b.is_finite() && c.is_finite()) || !(b >= a && b > c) {
+            if !(a.is_finite() && b.is_finite() && c.is_finite() && b >= a && b > c) {
                 continue;
             }
             let (lo, hi) = (ts[k - 1], ts[k + 1]);

@@ -642,7 +642,7 @@ impl<'a> YScan<'a> {
     /// corner): the step s ≥ 0 into the edge with y_t σ s + ½ y_tt s² =
     /// ys − y_m (σ = ±1 into the edge), to second order because y_t may
     /// be small there (the end of a seam edge, a nearby minimum).
-    fn into_edge(&self, m: &Maximum, e: u8, ys: f64) -> Option<(f64, f64)> {
+    fn edge_start(&self, m: &Maximum, e: u8, ys: f64) -> Option<(f64, f64)> {
         let d = self.sc.dom;
         let (yt, ytt) = if e < 2 {
             (m.s.yv, m.s.yvv)
@@ -826,13 +826,13 @@ impl<'a> YScan<'a> {
                     }
                 }
                 MaxKind::EdgeEnd(e) => {
-                    if let Some((u, v)) = self.into_edge(m, e, ys) {
+                    if let Some((u, v)) = self.edge_start(m, e, ys) {
                         cands.push((Kind::Edge(e), u, v));
                     }
                 }
                 MaxKind::Corner(eu, ev) => {
                     for e in [eu, ev] {
-                        if let Some((u, v)) = self.into_edge(m, e, ys) {
+                        if let Some((u, v)) = self.edge_start(m, e, ys) {
                             cands.push((Kind::Edge(e), u, v));
                         }
                     }
