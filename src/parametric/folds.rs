@@ -201,3 +201,42 @@ pub fn find_folds(sc: &Screen<'_>, n: usize) -> Vec<Fold> {
     folds.sort_by(|a, b| a.s.u.total_cmp(&b.s.u).then(a.s.v.total_cmp(&b.s.v)));
     folds
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Camera, Projection, View};
+    use crate::parametric::shapes;
+    use glam::DVec3;
+
+    /// The torus seen from 35° above: its inner silhouette arcs begin at
+    /// two curtain folds, where J = 0, T = 0, ∇y ≠ 0 and y is a maximum
+    /// along the silhouette (checked against silhouette points nearby).
+    #[test]
+    fn torus_curtain_folds() {
+        let t = shapes::torus(1.0, 0.4);
+        let view = View {
+            elevation: 35.0,
+            azimuth: 30.0,
+            projection: Projection::Orthographic { view_height: 3.2 },
+            target: DVec3::ZERO,
+        };
+        let cam = Camera::new(&view, 96, 72).unwrap();
+        let sc = Screen::new(&t, &cam);
+        let folds = find_folds(&sc, 97);
+        assert_eq!(folds.len(), 2);
+        for f in &folds {
+            let s = &f.s;
+            let (ju, jv) = s.jac_grad();
+            let scale = (ju.abs() + jv.abs()) * 1e-9;
+            assert!(s.jac().abs() < scale, "J = {}", s.jac());
+            assert!(tangency(s).abs() < 1e-6 * (s.yu.hypot(s.yv) * ju.hypot(jv)));
+            assert!(s.yu.hypot(s.yv) > 1.0 && f.ydd < 0.0);
+            for t in [-0.05, 0.05] {
+                let mut p = [(s.u + t * f.w.0, s.v + t * f.w.1)];
+                let q = onto_silhouette(&sc, &mut p, 1.0)[0].unwrap();
+                assert!(q.y < s.y, "{} ≥ {}", q.y, s.y);
+            }
+        }
+    }
+}

@@ -43,7 +43,9 @@ pub struct MaximaList {
     /// Climbs that did not converge within their iteration budget.
     pub failed: usize,
     /// Interior maxima whose Hessian is nearly singular (§3.4 parabolic
-    /// cylinder): handled by the boundary trackers of the patch edges.
+    /// cylinder, a ridge of equal maxima): the level curve below is two
+    /// curves running to the patch edges, whose four boundary trackers
+    /// start at the maxima of y along those edges ([`edge_maxima`]).
     pub parabolic: usize,
 }
 

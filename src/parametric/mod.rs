@@ -4,10 +4,14 @@
 //!
 //! * [`screen`]: the surface in screen space (the perspective transform
 //!   applied to the defining functions, §2), derivatives by the chain rule;
-//! * [`maxima`]: local maxima of screen y (§3.2.2.1);
+//! * [`maxima`]: local maxima of screen y (§3.2.2.1), also along each edge
+//!   and at edge ends;
+//! * [`folds`]: the §3.4 pre-scan for curtain folds (maxima of y along the
+//!   silhouette);
 //! * [`trackers`]: the Y scan — boundary-edge and silhouette trackers
 //!   updated by Newton with extrapolation (§3.2.1, §3.5), created at maxima
-//!   and folded edges, deleted at minima (§3.2.2–3.2.3), with a safety net;
+//!   folded edges, curtain folds, seams and the left image border, deleted
+//!   at minima (§3.2.2–3.2.4), with a safety net as a fallback;
 //! * [`xscan_exact`]: the exact X scan (§3.3);
 //! * [`xscan_sampled`]: the sampled X scan (§4) — samples at equal steps of
 //!   the cross-section normal angle, normals interpolated between them.
