@@ -142,3 +142,95 @@ def test_tiny_and_huge_parameter_domains(k):
     assert np.nanmax(np.abs(base.depth[m] - scaled.depth[m])) < 1e-5
     assert np.nanmax(scaled.uv[m]) > 6 * k
     assert scaled.stats["convergence_failures"] == 0
+
+
+def _ridge(u, v):
+    u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+    return u - 0.3 * v**2
+
+
+@pytest.mark.parametrize("view", [
+    fcol.View(0, 90, view_height=3.0),
+    fcol.View(0, 90, target=(0, 0, 1 - 20.5 / 24), view_height=3.0),  # ridge exactly on a row centre
+], ids=["side-on", "side-on-on-row"])
+@pytest.mark.parametrize("x_scan", ["newton", "sampled"])
+def test_curved_parabolic_ridge_without_safety_net(view, x_scan):
+    """A curved ridge of equal maxima z = 1 − (u − 0.3 v²)² seen side-on
+    (§3.4 parabolic cylinder: y_uu y_vv − y_uv² = 0 all along it). Below it
+    the level curve is two curves running from edge v = −1 to edge v = 1:
+    four boundary trackers, started at the maxima of y along those edges.
+    With the safety net off the tracking alone draws the surface."""
+    surf = fcol.Parametric("u", "v", "1 - (u - 0.3*v**2)**2", domain=((-1, 1), (-1, 1)))
+
+    def xyz(u, v):
+        g = _ridge(u, v)
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        return u, v, 1 - g**2
+
+    def jac(u, v):
+        g = _ridge(u, v)
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        z = np.zeros_like(u)
+        return np.stack([1 + z, z, -2 * g], -1), np.stack([z, 1 + z, 1.2 * g * v], -1)
+
+    ref = parametric_reference(xyz, jac, ((-1, 1), (-1, 1)), view, W, H)
+    img = fcol.render(surf, view, W, H, outputs=("depth", "normal", "mask"), x_scan=x_scan, safety_net=False)
+    m = compare(img, ref, view)
+    assert m["mask_bad"] == 0, m
+    s = img.stats
+    assert s["parabolic_maxima"] > 0 and s["created_at_maxima"] >= 4, s
+    assert s["net_added"] == 0
+    if x_scan == "newton":
+        assert m["depth_px_median"] <= 1e-3 and m["normal_deg_p99"] <= 0.5, m
+    else:
+        assert m["normal_deg_median"] <= 0.5 and m["normal_deg_p99"] <= 3.0, m
+
+
+@pytest.mark.parametrize("view", [
+    fcol.View(40, 30, view_height=9),
+    fcol.View(-30, 0, view_height=9),
+], ids=["above", "below"])
+def test_curtain_folds_without_safety_net(view):
+    """Enneper's surface: silhouette arcs that begin at curtain folds
+    (§3.4), points where the silhouette J = 0 is tangent to a level curve
+    of y without y being stationary. The pre-scan finds them and starts two
+    silhouette trackers below each; with the safety net off the picture
+    still matches the reference, and with it on the net adds nothing."""
+    ref = _ref("enneper", view)
+    surf = _surface("enneper")
+    for x_scan in ("newton", "sampled"):
+        img = fcol.render(surf, view, W, H, outputs=("depth", "normal", "mask"), x_scan=x_scan, safety_net=False)
+        m = compare(img, ref, view)
+        assert m["mask_bad"] == 0, (x_scan, m)
+        s = img.stats
+        assert s["curtain_folds"] >= 2 and s["created_at_curtain_folds"] >= 2, s
+        on = fcol.render(surf, view, W, H, outputs=("mask",), x_scan=x_scan)
+        assert on.stats["net_added"] == 0
+        assert np.array_equal(on.mask, img.mask)
+
+
+def test_safety_net_option_is_checked():
+    with pytest.raises(TypeError, match="safety_net"):
+        fcol.render(_surface("sphere"), fcol.View(30, 20, view_height=2.6), 8, 6, outputs=("mask",),
+                    safety_net="no")
+
+
+def test_callable_surface_batches_pixel_solves():
+    """Three NumPy-vectorised callables: the exact X scan solves runs of
+    pixels together (one call per callable and Newton round), so the render
+    makes fewer calls per callable than points evaluated, and draws the picture
+    of the same surface given as expressions."""
+    view = fcol.View(20, 120, "perspective", distance=5, fov=45)
+    (x, y, z), dom, _ = EXPR["torus"]
+    fns = [lambda u, v: (1 + 0.4 * np.cos(v)) * np.cos(u), lambda u, v: (1 + 0.4 * np.cos(v)) * np.sin(u),
+           lambda u, v: 0.4 * np.sin(v) + 0 * u]
+    surf = fcol.Parametric(*fns, domain=dom)
+    before = surf.calls
+    img = fcol.render(surf, view, W, H, outputs=("depth", "mask"))
+    calls = surf.calls - before
+    # One call per callable and batch; without batching each point
+    # evaluated costs about one call per callable.
+    assert calls / 3 < 0.75 * img.samples, (calls, img.samples)
+    ex = fcol.render(_surface("torus"), view, W, H, outputs=("depth", "mask"))
+    assert np.array_equal(img.mask, ex.mask)
+    assert np.nanmax(np.abs(img.depth - ex.depth)) < 1e-4

@@ -19,6 +19,10 @@ pub enum MaxKind {
     Edge(u8),
     /// Corner (u0|u1, v0|v1) as edge indices (0|1, 2|3).
     Corner(u8, u8),
+    /// End of edge e where y along the edge is highest but the corner is
+    /// not a maximum (y rises into the patch along the other edge): a
+    /// tracker of the other edge reaches the corner and goes on along e.
+    EdgeEnd(u8),
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -39,7 +43,9 @@ pub struct MaximaList {
     /// Climbs that did not converge within their iteration budget.
     pub failed: usize,
     /// Interior maxima whose Hessian is nearly singular (§3.4 parabolic
-    /// cylinder): handled by the boundary trackers of the patch edges.
+    /// cylinder, a ridge of equal maxima): the level curve below is two
+    /// curves running to the patch edges, whose four boundary trackers
+    /// start at the maxima of y along those edges ([`edge_maxima`]).
     pub parabolic: usize,
 }
 
@@ -158,7 +164,7 @@ pub fn climb(sc: &Screen<'_>, mut u: f64, mut v: f64) -> Option<Maximum> {
         MaxKind::Interior => s.yu.abs() < tol && s.yv.abs() < tol,
         MaxKind::Edge(e) if e < 2 => s.yv.abs() < tol,
         MaxKind::Edge(_) => s.yu.abs() < tol,
-        MaxKind::Corner(..) => true,
+        MaxKind::Corner(..) | MaxKind::EdgeEnd(_) => true,
     };
     if !ok {
         return None;
@@ -230,13 +236,16 @@ pub fn find_maxima(sc: &Screen<'_>, n: usize) -> MaximaList {
     for (u, v) in starts {
         match climb(sc, u, v) {
             Some(m) => {
-                // The same point, or the same screen point (a degenerate
-                // edge such as a sphere's pole, where P_u = 0).
+                // The same point, or the same screen point of the same
+                // kind (a degenerate edge such as a sphere's pole, where
+                // P_u = 0). The two edges of a closed surface's seam map
+                // to the same screen points but carry trackers of their
+                // own: their maxima are all kept.
                 let dup = out.maxima.iter().any(|o| {
-                    (((o.u - m.u) / ext_u).abs() < 1e-7
-                        && ((o.v - m.v) / ext_v).abs() < 1e-7
-                        && o.kind == m.kind)
-                        || ((o.s.x - m.s.x).abs() < 1e-7 && (o.y - m.y).abs() < 1e-7)
+                    o.kind == m.kind
+                        && ((((o.u - m.u) / ext_u).abs() < 1e-7
+                            && ((o.v - m.v) / ext_v).abs() < 1e-7)
+                            || ((o.s.x - m.s.x).abs() < 1e-7 && (o.y - m.y).abs() < 1e-7))
                 });
                 if !dup {
                     out.maxima.push(m);
@@ -245,6 +254,7 @@ pub fn find_maxima(sc: &Screen<'_>, n: usize) -> MaximaList {
             None => out.failed += 1,
         }
     }
+    edge_maxima(sc, 4 * n, &mut out);
     for m in &out.maxima {
         if m.kind == MaxKind::Interior {
             let h = m.s.yuu.abs().max(m.s.yvv.abs()).max(m.s.yuv.abs());
@@ -260,6 +270,113 @@ pub fn find_maxima(sc: &Screen<'_>, n: usize) -> MaximaList {
             .then(a.v.total_cmp(&b.v))
     });
     out
+}
+
+/// Local maxima of y along each boundary edge, whichever way y moves into
+/// the patch there. Where y rises into the patch (not a constrained
+/// maximum of §3.2.2.1) a level curve from the interior reaches the edge
+/// as the scan passes: it is cut there and two boundary trackers must
+/// start, as below an edge maximum. On a closed surface's seam this is
+/// the twin of the other seam edge's constrained maximum. Samples at `m`
+/// points per edge, refined by Newton on y_t = 0 inside the bracketing
+/// samples.
+fn edge_maxima(sc: &Screen<'_>, m: usize, out: &mut MaximaList) {
+    let d = sc.dom;
+    let m = m.max(5);
+    let ext = (d.u1 - d.u0).max(d.v1 - d.v0);
+    for e in 0..4u8 {
+        let (t0, t1) = if e < 2 { (d.v0, d.v1) } else { (d.u0, d.u1) };
+        let at = |t: f64| match e {
+            0 => (d.u0, t),
+            1 => (d.u1, t),
+            2 => (t, d.v0),
+            _ => (t, d.v1),
+        };
+        let ts: Vec<f64> = (0..m)
+            .map(|k| t0 + (t1 - t0) * k as f64 / (m - 1) as f64)
+            .collect();
+        let (us, vs): (Vec<f64>, Vec<f64>) = ts.iter().map(|&t| at(t)).unzip();
+        let ys: Vec<f64> = sc
+            .eval_batch(&us, &vs)
+            .iter()
+            .map(|s| s.map_or(f64::NAN, |s| s.y))
+            .collect();
+        // The ends: y along the edge highest at a corner.
+        for (k, kn) in [(0, 1), (m - 1, m - 2)] {
+            let (b, a) = (ys[k], ys[kn]);
+            if !(a.is_finite() && b.is_finite() && b > a) {
+                continue;
+            }
+            let (u, v) = at(ts[k]);
+            let corner_max = out.maxima.iter().any(|o| {
+                matches!(o.kind, MaxKind::Corner(..))
+                    && (o.u - u).abs().max((o.v - v).abs()) < 1e-9 * ext
+            });
+            let dup = out.maxima.iter().any(|o| {
+                o.kind == MaxKind::EdgeEnd(e) && (o.u - u).abs().max((o.v - v).abs()) < 1e-9 * ext
+            });
+            if corner_max || dup {
+                continue;
+            }
+            if let Some(s) = sc.eval(u, v) {
+                out.maxima.push(Maximum {
+                    u,
+                    v,
+                    y: s.y,
+                    kind: MaxKind::EdgeEnd(e),
+                    det: s.yuu * s.yvv - s.yuv * s.yuv,
+                    s,
+                });
+            }
+        }
+        for k in 1..m - 1 {
+            let (a, b, c) = (ys[k - 1], ys[k], ys[k + 1]);
+            if !(a.is_finite() && b.is_finite() && c.is_finite() && b >= a && b > c) {
+                continue;
+            }
+            let (lo, hi) = (ts[k - 1], ts[k + 1]);
+            let mut t = ts[k];
+            let mut best = None;
+            for _ in 0..40 {
+                let (u, v) = at(t);
+                let Some(s) = sc.eval(u, v) else { break };
+                let (yt, ytt) = if e < 2 { (s.yv, s.yvv) } else { (s.yu, s.yuu) };
+                best = Some(s);
+                let dt = if ytt < 0.0 {
+                    -yt / ytt
+                } else {
+                    0.25 * (hi - lo) * yt.signum()
+                };
+                let nt = (t + dt).clamp(lo, hi);
+                if !nt.is_finite() || (nt - t).abs() <= 1e-14 * ext {
+                    break;
+                }
+                t = nt;
+            }
+            let Some(s) = best else { continue };
+            let yt = if e < 2 { s.yv } else { s.yu };
+            let scale = 1.0 + s.yu.abs().max(s.yv.abs()).max(1.0);
+            if yt.abs() >= 1e-6 * scale || t <= t0 || t >= t1 {
+                continue; // no stationary point inside the edge
+            }
+            let kind = MaxKind::Edge(e);
+            let dup = out.maxima.iter().any(|o| {
+                o.kind == kind
+                    && ((o.u - s.u).abs().max((o.v - s.v).abs()) < 1e-7 * ext
+                        || ((o.s.x - s.x).abs() < 1e-7 && (o.y - s.y).abs() < 1e-7))
+            });
+            if !dup {
+                out.maxima.push(Maximum {
+                    u: s.u,
+                    v: s.v,
+                    y: s.y,
+                    kind,
+                    det: s.yuu * s.yvv - s.yuv * s.yuv,
+                    s,
+                });
+            }
+        }
+    }
 }
 
 /// Saddle points of screen y inside the patch (§3.2.2.4): Newton on

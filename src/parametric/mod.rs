@@ -4,10 +4,14 @@
 //!
 //! * [`screen`]: the surface in screen space (the perspective transform
 //!   applied to the defining functions, §2), derivatives by the chain rule;
-//! * [`maxima`]: local maxima of screen y (§3.2.2.1);
+//! * [`maxima`]: local maxima of screen y (§3.2.2.1), also along each edge
+//!   and at edge ends;
+//! * [`folds`]: the §3.4 pre-scan for curtain folds (maxima of y along the
+//!   silhouette);
 //! * [`trackers`]: the Y scan — boundary-edge and silhouette trackers
 //!   updated by Newton with extrapolation (§3.2.1, §3.5), created at maxima
-//!   and folded edges, deleted at minima (§3.2.2–3.2.3), with a safety net;
+//!   folded edges, curtain folds, seams and the left image border, deleted
+//!   at minima (§3.2.2–3.2.4), with a safety net as a fallback;
 //! * [`xscan_exact`]: the exact X scan (§3.3);
 //! * [`xscan_sampled`]: the sampled X scan (§4) — samples at equal steps of
 //!   the cross-section normal angle, normals interpolated between them.
@@ -16,6 +20,7 @@
 //! seeds its trackers afresh, so the output does not depend on the number
 //! of threads.
 
+pub mod folds;
 pub mod maxima;
 pub mod screen;
 pub mod shapes;
@@ -55,6 +60,9 @@ pub struct Options {
     pub extrapolate: bool,
     /// Scan lines per parallel band.
     pub band: usize,
+    /// Let the safety net add trackers the tracking missed (after the
+    /// first scan line of a band). Off only to check the tracking alone.
+    pub safety_net: bool,
 }
 
 impl Default for Options {
@@ -64,6 +72,7 @@ impl Default for Options {
             grid: 97,
             extrapolate: true,
             band: 16,
+            safety_net: true,
         }
     }
 }
@@ -161,6 +170,8 @@ pub fn render(
     let x_left = -0.5 * width as f64;
     let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
     let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
+    let folds = folds::find_folds(&sc, opts.grid.min(129));
+    let seams = trackers::seams(&sc);
     // Depth unit of the sampled scan's cross-section angle: one pixel at
     // the view distance.
     let zs = match view.projection {
@@ -179,10 +190,13 @@ pub fn render(
     let results: Vec<Result<BandOut>> = bands
         .par_iter()
         .map(|&(r0, r1)| {
-            let yscan = YScan::new(&sc, x_left, opts.extrapolate);
+            let mut yscan = YScan::new(&sc, x_left, opts.extrapolate);
+            yscan.rescue = opts.safety_net;
+            yscan.seams = seams;
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
             xscan.cancel = Some(cancel);
+            xscan.first_order = !sampled;
             if let XScanMode::Sampled {
                 per_turn,
                 max_error,
@@ -208,6 +222,7 @@ pub fn render(
                     i == r0,
                     &maxima.maxima,
                     &saddles,
+                    &folds,
                     &net,
                     &mut seeds,
                     &mut st.y,
@@ -257,6 +272,10 @@ pub fn render(
     b.stat("created_at_maxima", y.created_maxima as f64);
     b.stat("created_at_folds", y.created_fold as f64);
     b.stat("created_at_saddles", y.created_saddles as f64);
+    b.stat("curtain_folds", folds.len() as f64);
+    b.stat("created_at_curtain_folds", y.created_curtain as f64);
+    b.stat("created_at_left_border", y.created_left as f64);
+    b.stat("created_at_seams", y.created_seam as f64);
     b.stat("net_added", y.net_added as f64);
     b.stat("band_seeds", y.band_seeds as f64);
     b.stat("pieces", x.pieces as f64);

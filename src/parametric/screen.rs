@@ -167,6 +167,85 @@ impl<'a> Screen<'a> {
         ok.then_some(out)
     }
 
+    /// [`from_sample`](Self::from_sample) to first order: P, P_u, P_v
+    /// only; the second derivatives of the result are NaN (any use shows).
+    pub fn from_sample_first(&self, u: f64, v: f64, p: ParamSample) -> Option<ScreenSample> {
+        if !p.is_finite() {
+            return None;
+        }
+        let cam = self.cam;
+        let c3 = |axis: DVec3| [(p.p - cam.eye).dot(axis), p.pu.dot(axis), p.pv.dot(axis)];
+        let (cx, cy, cz) = (c3(cam.r), c3(cam.up), c3(cam.d));
+        let (x, y) = if cam.perspective {
+            if cz[0] <= cam.near {
+                return None;
+            }
+            // q = F a / c: q_i = F (a_i − (a/c) c_i) / c.
+            let f = cam.focal;
+            let ic = 1.0 / cz[0];
+            let q = |a: [f64; 3]| {
+                let r = a[0] * ic;
+                [
+                    f * r,
+                    f * (a[1] - r * cz[1]) * ic,
+                    f * (a[2] - r * cz[2]) * ic,
+                ]
+            };
+            (q(cx), q(cy))
+        } else {
+            let k = 1.0 / cam.pixel;
+            (cx.map(|t| t * k), cy.map(|t| t * k))
+        };
+        let nan = f64::NAN;
+        let out = ScreenSample {
+            u,
+            v,
+            x: x[0],
+            y: y[0],
+            z: cz[0],
+            xu: x[1],
+            xv: x[2],
+            yu: y[1],
+            yv: y[2],
+            zu: cz[1],
+            zv: cz[2],
+            xuu: nan,
+            xuv: nan,
+            xvv: nan,
+            yuu: nan,
+            yuv: nan,
+            yvv: nan,
+            p,
+        };
+        let ok = out.x.is_finite()
+            && out.y.is_finite()
+            && out.xu.is_finite()
+            && out.xv.is_finite()
+            && out.yu.is_finite()
+            && out.yv.is_finite();
+        ok.then_some(out)
+    }
+
+    /// Evaluate at one point to first order (counted): the second
+    /// derivatives of the result are NaN.
+    #[inline]
+    pub fn eval_first(&self, u: f64, v: f64) -> Option<ScreenSample> {
+        self.evals.fetch_add(1, Ordering::Relaxed);
+        let p = self.surf.eval_first(u, v);
+        self.from_sample_first(u, v, p)
+    }
+
+    /// [`eval_first`](Self::eval_first) at many points in one batch.
+    pub fn eval_first_batch(&self, u: &[f64], v: &[f64]) -> Vec<Option<ScreenSample>> {
+        self.evals.fetch_add(u.len() as u64, Ordering::Relaxed);
+        let mut out = vec![ParamSample::default(); u.len()];
+        self.surf.eval_first_batch(u, v, &mut out);
+        out.into_iter()
+            .zip(u.iter().zip(v))
+            .map(|(p, (&u, &v))| self.from_sample_first(u, v, p))
+            .collect()
+    }
+
     /// Evaluate at one point (counted).
     #[inline]
     pub fn eval(&self, u: f64, v: f64) -> Option<ScreenSample> {
@@ -239,6 +318,21 @@ mod tests {
             let (ju, jv) = s.jac_grad();
             assert!(rel((su.jac() - sm.jac()) / (2.0 * h), ju) < 1e-5);
             assert!(rel((tv.jac() - tm.jac()) / (2.0 * h), jv) < 1e-5);
+            // The first-order evaluation agrees to first order.
+            let f = sc.eval_first(u, v).unwrap();
+            for (a, b) in [
+                (f.x, s.x),
+                (f.y, s.y),
+                (f.z, s.z),
+                (f.xu, s.xu),
+                (f.xv, s.xv),
+            ] {
+                assert!(rel(a, b) < 1e-12, "{a} {b}");
+            }
+            for (a, b) in [(f.yu, s.yu), (f.yv, s.yv), (f.zu, s.zu), (f.zv, s.zv)] {
+                assert!(rel(a, b) < 1e-12, "{a} {b}");
+            }
+            assert!(f.xuu.is_nan() && f.yvv.is_nan());
             // Screen position agrees with the camera's projection.
             let q = cam.to_screen(s.p.p);
             assert!((q.x - s.x).abs() < 1e-9 && (q.y - s.y).abs() < 1e-9);

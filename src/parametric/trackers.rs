@@ -14,23 +14,30 @@
 //! Between scan lines each tracker is updated by Newton from its previous
 //! position, extrapolated from the two previous ones (§3.5). Trackers are
 //! created at the local maxima of y the scan passes (second-order start
-//! §3.2.2.2), where a boundary tracker's J changes sign (folded edge
-//! §3.2.2.3), and deleted when Newton fails to converge (minima §3.2.3) or a
-//! silhouette tracker leaves the patch.
+//! §3.2.2.2) — interior, along an edge (whichever way y moves into the
+//! patch: where it rises inwards an interior level curve is cut by the
+//! edge), at an edge's end and at corners —, where a boundary tracker's J
+//! changes sign (folded edge §3.2.2.3, also between a new edge piece and
+//! its maximum), below curtain folds (§3.4, [`super::folds`]), across a
+//! closed surface's seam, and where a tracked curve crosses the left image
+//! border; they are deleted when Newton fails to converge (minima §3.2.3)
+//! or a silhouette tracker leaves the patch.
 //!
 //! Silhouette trackers are also started at saddles of y where y has a
 //! maximum along the silhouette (§3.2.2.4).
 //!
-//! Safety net: tracking alone still misses some level-curve pieces — born at
-//! curtain folds (§3.4), at stationary points on a patch edge, or lost by a
-//! failed update near a minimum (the statistics `net_added` count them: 0 to
-//! 12 per 96×72 render over the test surfaces, so the net stays). Every scan line the
-//! curves are therefore also intersected with a coarse precomputed picture
-//! of them — y sampled along each boundary edge, and the silhouette and the
-//! left-border curve traced by marching squares over a grid — and every
-//! crossing without a tracker is refined by the same Newton iteration and
-//! added (counted in the statistics as `net_added`).
+//! Safety net: every scan line the curves are also intersected with a
+//! coarse precomputed picture of them — y sampled along each boundary edge,
+//! and the silhouette and the left-border curve traced by marching squares
+//! over a grid — and every crossing without a tracker is refined by the
+//! same Newton iteration and added (`net_added`). It seeds the first scan
+//! line of each band; after that it is a fallback: over the 23 test views
+//! at 96×72 it adds 4 trackers in all (a pole on the silhouette, a
+//! silhouette born at a Bézier patch corner, a silhouette at the left
+//! border with the eye close to the surface), and with it switched off
+//! (`safety_net=False`) 21 of them render without a mask error.
 
+use super::folds::Fold;
 use super::maxima::{MaxKind, Maximum};
 use super::screen::{Screen, ScreenSample};
 use crate::surface::Domain;
@@ -71,6 +78,13 @@ pub struct YStats {
     pub created_fold: u64,
     /// Silhouette trackers started at saddles of y (§3.2.2.4).
     pub created_saddles: u64,
+    /// Silhouette trackers started below curtain folds (§3.4).
+    pub created_curtain: u64,
+    /// Left-border trackers started where a tracked curve crossed the
+    /// left image border.
+    pub created_left: u64,
+    /// Silhouette trackers continued across a seam.
+    pub created_seam: u64,
     /// Trackers the safety net had to add on a scan line after the first of
     /// a band.
     pub net_added: u64,
@@ -88,6 +102,9 @@ impl YStats {
         self.created_maxima += o.created_maxima;
         self.created_fold += o.created_fold;
         self.created_saddles += o.created_saddles;
+        self.created_curtain += o.created_curtain;
+        self.created_left += o.created_left;
+        self.created_seam += o.created_seam;
         self.net_added += o.net_added;
         self.band_seeds += o.band_seeds;
     }
@@ -95,11 +112,11 @@ impl YStats {
 
 /// A segment of a curve traced by marching squares, with y at its ends.
 #[derive(Debug, Clone, Copy)]
-struct Seg {
-    a: (f64, f64),
-    b: (f64, f64),
-    ya: f64,
-    yb: f64,
+pub(super) struct Seg {
+    pub a: (f64, f64),
+    pub b: (f64, f64),
+    pub ya: f64,
+    pub yb: f64,
 }
 
 /// The coarse picture of the tracked curves (the safety net).
@@ -124,7 +141,7 @@ pub fn edge_point(d: &Domain, e: u8, t: f64) -> (f64, f64) {
     }
 }
 
-fn march(n: usize, us: &[f64], vs: &[f64], g: &[f64], y: &[f64]) -> Vec<Seg> {
+pub(super) fn march(n: usize, us: &[f64], vs: &[f64], g: &[f64], y: &[f64]) -> Vec<Seg> {
     let mut segs = Vec::new();
     let idx = |i: usize, k: usize| k * n + i;
     for k in 0..n - 1 {
@@ -367,6 +384,39 @@ impl Net {
     }
 }
 
+/// Whether the edges u0 and u1 (v0 and v1) are the same curve, point by
+/// point: the seam of a closed surface. Checked at 9 points per edge.
+pub fn seams(sc: &Screen<'_>) -> (bool, bool) {
+    let d = sc.dom;
+    let k = 9;
+    let mut us = Vec::new();
+    let mut vs = Vec::new();
+    for i in 0..k {
+        let f = (i as f64 + 0.37) / k as f64;
+        let (u, v) = (d.u0 + f * (d.u1 - d.u0), d.v0 + f * (d.v1 - d.v0));
+        us.extend([d.u0, d.u1, u, u]);
+        vs.extend([v, v, d.v0, d.v1]);
+    }
+    let mut p = vec![crate::surface::ParamSample::default(); us.len()];
+    sc.surf.eval_batch(&us, &vs, &mut p);
+    let scale = p
+        .iter()
+        .map(|s| s.p.abs().max_element())
+        .fold(0.0f64, f64::max);
+    let same = |a: usize, b: usize| {
+        p[a].p.is_finite()
+            && p[b].p.is_finite()
+            && (p[a].p - p[b].p).abs().max_element() <= 1e-9 * scale
+    };
+    let mut su = true;
+    let mut sv = true;
+    for i in 0..k {
+        su &= same(4 * i, 4 * i + 1);
+        sv &= same(4 * i + 2, 4 * i + 3);
+    }
+    (su, sv)
+}
+
 /// Starting guesses of the two silhouette trackers below a stationary
 /// point q of y where y has a maximum along the silhouette (§3.2.2.2):
 /// the level curve ½ΔᵀH_yΔ = ys − y_q meets the silhouette line ∇J·Δ = 0.
@@ -398,6 +448,11 @@ pub struct YScan<'a> {
     pub x_left: f64,
     pub ext: f64,
     pub extrapolate: bool,
+    /// Edges u0/u1 (and v0/v1) are the same curve (a closed surface).
+    pub seams: (bool, bool),
+    /// Let the safety net add trackers after the first scan line of a band
+    /// (off only to check that the tracking finds every curve alone).
+    pub rescue: bool,
 }
 
 impl<'a> YScan<'a> {
@@ -408,6 +463,8 @@ impl<'a> YScan<'a> {
             x_left,
             ext: (d.u1 - d.u0).max(d.v1 - d.v0),
             extrapolate,
+            seams: (false, false),
+            rescue: true,
         }
     }
 
@@ -551,6 +608,70 @@ impl<'a> YScan<'a> {
         }
     }
 
+    /// Starting guesses of the two border trackers where the level curve
+    /// through silhouette point q (an extremum of x along the level curve)
+    /// meets x = x_left: along the curve c(s), c' = t = (−y_v, y_u)/|∇y|,
+    /// c'' = −(tᵀH_y t) ∇y/|∇y|², x(s) ≈ x_q + ½ s² (tᵀH_x t + ∇x·c'').
+    fn left_starts(&self, q: &ScreenSample) -> [(f64, f64); 2] {
+        let g2 = q.yu * q.yu + q.yv * q.yv;
+        let l = g2.sqrt();
+        if l.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return [(q.u, q.v); 2];
+        }
+        let (tu, tv) = (-q.yv / l, q.yu / l);
+        let quad = |a: f64, b: f64, c: f64| a * tu * tu + 2.0 * b * tu * tv + c * tv * tv;
+        let ky = -quad(q.yuu, q.yuv, q.yvv) / g2;
+        let (cu, cv) = (ky * q.yu, ky * q.yv);
+        let xss = quad(q.xuu, q.xuv, q.xvv) + q.xu * cu + q.xv * cv;
+        let a2 = 2.0 * (self.x_left - q.x) / xss;
+        let a = if a2.is_finite() && a2 > 0.0 {
+            a2.sqrt()
+        } else {
+            0.0
+        };
+        let at = |s: f64| {
+            (
+                q.u + s * tu + 0.5 * s * s * cu,
+                q.v + s * tv + 0.5 * s * s * cv,
+            )
+        };
+        [at(a), at(-a)]
+    }
+
+    /// Starting guess on edge e below a maximum m at the edge's end (a
+    /// corner): the step s ≥ 0 into the edge with y_t σ s + ½ y_tt s² =
+    /// ys − y_m (σ = ±1 into the edge), to second order because y_t may
+    /// be small there (the end of a seam edge, a nearby minimum).
+    fn edge_start(&self, m: &Maximum, e: u8, ys: f64) -> Option<(f64, f64)> {
+        let d = self.sc.dom;
+        let (yt, ytt) = if e < 2 {
+            (m.s.yv, m.s.yvv)
+        } else {
+            (m.s.yu, m.s.yuu)
+        };
+        let at_start = if e < 2 { m.v <= d.v0 } else { m.u <= d.u0 };
+        let sg = if at_start { 1.0 } else { -1.0 };
+        let (a, b, c) = (0.5 * ytt, sg * yt, m.y - ys);
+        let step = if a.abs() * c.abs() <= 1e-12 * b * b {
+            -c / b
+        } else {
+            let q = (b * b - 4.0 * a * c).sqrt();
+            [(-b + q) / (2.0 * a), (-b - q) / (2.0 * a)]
+                .into_iter()
+                .filter(|r| r.is_finite() && *r >= 0.0)
+                .fold(f64::NAN, f64::min)
+        };
+        if !(step.is_finite() && step >= 0.0) {
+            return None;
+        }
+        let dt = sg * step;
+        Some(if e < 2 {
+            (m.u, m.v + dt)
+        } else {
+            (m.u + dt, m.v)
+        })
+    }
+
     /// Advance all trackers to scan line `ys` and create new ones; `first`
     /// marks the first scan line of a band (no previous trackers).
     #[allow(clippy::too_many_arguments)]
@@ -561,6 +682,7 @@ impl<'a> YScan<'a> {
         first: bool,
         maxima: &[Maximum],
         saddles: &[ScreenSample],
+        folds: &[Fold],
         net: &Net,
         seeds: &mut Vec<(Kind, f64, f64)>,
         st: &mut YStats,
@@ -615,6 +737,28 @@ impl<'a> YScan<'a> {
                             }
                         }
                     }
+                    // The level curve crossed the left image border: a
+                    // boundary tracker passing it starts a border tracker,
+                    // a silhouette tracker passing it two.
+                    if (s.x < self.x_left) != (t.s.x < self.x_left) {
+                        let starts: Vec<(f64, f64)> = match t.kind {
+                            Kind::Edge(_) => vec![(s.u, s.v)],
+                            Kind::Sil => self.left_starts(&s).to_vec(),
+                            Kind::Left => Vec::new(),
+                        };
+                        for (u, v) in starts {
+                            if let Some((ls, _, _)) = self.solve(Kind::Left, u, v, ys) {
+                                if !out.iter().any(|o| same(o, Kind::Left, &ls)) {
+                                    st.created_left += 1;
+                                    out.push(Tracker {
+                                        kind: Kind::Left,
+                                        s: ls,
+                                        prev: None,
+                                    });
+                                }
+                            }
+                        }
+                    }
                     out.push(Tracker {
                         kind: t.kind,
                         s,
@@ -623,10 +767,36 @@ impl<'a> YScan<'a> {
                 }
                 None => {
                     let inside = d.contains(gu, gv);
-                    if t.kind == Kind::Sil && !inside {
-                        st.exited += 1;
-                    } else {
+                    if t.kind != Kind::Sil || inside {
                         st.lost += 1;
+                        continue;
+                    }
+                    st.exited += 1;
+                    // Across a closed surface's seam the silhouette goes on
+                    // from the twin edge.
+                    let (pu, pv) = (d.u1 - d.u0, d.v1 - d.v0);
+                    let mut twin = (gu, gv);
+                    if self.seams.0 && gu < d.u0 {
+                        twin.0 += pu;
+                    } else if self.seams.0 && gu > d.u1 {
+                        twin.0 -= pu;
+                    }
+                    if self.seams.1 && gv < d.v0 {
+                        twin.1 += pv;
+                    } else if self.seams.1 && gv > d.v1 {
+                        twin.1 -= pv;
+                    }
+                    if twin != (gu, gv) && d.contains(twin.0, twin.1) {
+                        if let Some((s, _, _)) = self.solve(Kind::Sil, twin.0, twin.1, ys) {
+                            if !out.iter().any(|o| same(o, Kind::Sil, &s)) {
+                                st.created_seam += 1;
+                                out.push(Tracker {
+                                    kind: Kind::Sil,
+                                    s,
+                                    prev: None,
+                                });
+                            }
+                        }
                     }
                 }
             }
@@ -655,23 +825,71 @@ impl<'a> YScan<'a> {
                         }
                     }
                 }
-                MaxKind::Corner(eu, ev) => {
-                    // Along edge eu (u fixed) v moves; along ev (v fixed) u moves.
-                    if m.s.yv != 0.0 {
-                        cands.push((Kind::Edge(eu), m.u, m.v + (ys - m.y) / m.s.yv));
+                MaxKind::EdgeEnd(e) => {
+                    if let Some((u, v)) = self.edge_start(m, e, ys) {
+                        cands.push((Kind::Edge(e), u, v));
                     }
-                    if m.s.yu != 0.0 {
-                        cands.push((Kind::Edge(ev), m.u + (ys - m.y) / m.s.yu, m.v));
+                }
+                MaxKind::Corner(eu, ev) => {
+                    for e in [eu, ev] {
+                        if let Some((u, v)) = self.edge_start(m, e, ys) {
+                            cands.push((Kind::Edge(e), u, v));
+                        }
                     }
                 }
             }
+            let mut made = 0;
+            let mut missed = Vec::new();
             for (kind, u, v) in cands {
-                if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
+                let r = self.solve(kind, u, v, ys);
+                if r.is_none() {
+                    missed.push((u, v));
+                }
+                if let Some((s, _, _)) = r {
+                    made += 1;
                     if !out.iter().any(|o| same(o, kind, &s)) {
                         st.created_maxima += 1;
                         out.push(Tracker {
                             kind,
                             s,
+                            prev: None,
+                        });
+                        // A silhouette inside the new piece: J changed
+                        // sign between the maximum and its boundary
+                        // tracker (§3.2.2.3 at creation).
+                        if matches!(kind, Kind::Edge(_)) && (s.jac() < 0.0) != (m.s.jac() < 0.0) {
+                            let mid = (0.5 * (s.u + m.u), 0.5 * (s.v + m.v));
+                            let fs = self
+                                .solve(Kind::Sil, s.u, s.v, ys)
+                                .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
+                            if let Some((fs, _, _)) = fs {
+                                if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                                    st.created_fold += 1;
+                                    out.push(Tracker {
+                                        kind: Kind::Sil,
+                                        s: fs,
+                                        prev: None,
+                                    });
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            // A corner piece with one boundary end only: its other end is
+            // a silhouette point (y along the second edge turned up again).
+            if let (MaxKind::Corner(..), 1, [(u, v)]) = (m.kind, made, missed.as_slice()) {
+                let (u, v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
+                let mid = (0.5 * (u + m.u), 0.5 * (v + m.v));
+                let fs = self
+                    .solve(Kind::Sil, u, v, ys)
+                    .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
+                if let Some((fs, _, _)) = fs {
+                    if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                        st.created_fold += 1;
+                        out.push(Tracker {
+                            kind: Kind::Sil,
+                            s: fs,
                             prev: None,
                         });
                     }
@@ -704,9 +922,31 @@ impl<'a> YScan<'a> {
                 }
             }
         }
+        // §3.4 curtain folds: a maximum of y along the silhouette starts
+        // two silhouette trackers below it.
+        for f in folds {
+            let dy = f.s.y - ys;
+            if !(0.0..8.0).contains(&dy) {
+                continue;
+            }
+            for (u, v) in f.starts(ys) {
+                if let Some((s, _, _)) = self.solve(Kind::Sil, u, v, ys) {
+                    if !out.iter().any(|o| same(o, Kind::Sil, &s)) {
+                        st.created_curtain += 1;
+                        out.push(Tracker {
+                            kind: Kind::Sil,
+                            s,
+                            prev: None,
+                        });
+                    }
+                }
+            }
+        }
         // Safety net.
         seeds.clear();
-        net.seeds(&d, ys, seeds);
+        if first || self.rescue {
+            net.seeds(&d, ys, seeds);
+        }
         for &(kind, u, v) in seeds.iter() {
             if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
                 if !out.iter().any(|o| same(o, kind, &s)) {

@@ -13,7 +13,7 @@
 //! of a piece (a silhouette, where J → 0 and Newton's basin shrinks) and
 //! wherever a Newton step fails its checks (no convergence, the wrong sign
 //! of J, an implausible jump), the scan falls back to predictor–corrector
-//! continuation along the level curve in steps of a quarter pixel, which
+//! continuation along the level curve in steps of about a pixel, which
 //! brackets the pixel and refines it by Newton or bisection, or finds the
 //! end of the piece (x turns back, or the curve leaves the patch).
 
@@ -139,6 +139,12 @@ pub struct XScan<'a> {
     /// the cross-section angle, and the normal-angle trackers of the band.
     pub zs: f64,
     pub pool: std::cell::RefCell<super::xscan_sampled::Pool>,
+    /// Evaluate pixel solves to first order only (the exact scan: nothing
+    /// downstream of them reads second derivatives).
+    pub first_order: bool,
+    /// Solve runs of pixels together, one evaluation batch per Newton round
+    /// (surfaces whose single-point evaluation is dear: Python callables).
+    pub batch: bool,
 }
 
 impl<'a> XScan<'a> {
@@ -153,6 +159,8 @@ impl<'a> XScan<'a> {
             cancel: None,
             zs: 1.0,
             pool: Default::default(),
+            batch: !sc.surf.cheap_point_eval(),
+            first_order: false,
         }
     }
 
@@ -171,6 +179,16 @@ impl<'a> XScan<'a> {
             self.width
         } else {
             j as usize
+        }
+    }
+
+    /// The evaluation of pixel solves (first order in the exact scan).
+    #[inline]
+    fn ev(&self, u: f64, v: f64) -> Option<ScreenSample> {
+        if self.first_order {
+            self.sc.eval_first(u, v)
+        } else {
+            self.sc.eval(u, v)
         }
     }
 
@@ -200,7 +218,7 @@ impl<'a> XScan<'a> {
         let d = self.sc.dom;
         let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
         for _ in 0..12 {
-            let s = self.sc.eval(u, v)?;
+            let s = self.ev(u, v)?;
             let f = s.y - ys;
             let g = s.x - xp;
             let det = s.jac();
@@ -228,11 +246,73 @@ impl<'a> XScan<'a> {
         None
     }
 
+    /// [`newton_tol`](Self::newton_tol) for many (u, v, x_p) of scan line
+    /// ys at once: every round evaluates all unfinished points in one
+    /// batch.
+    pub fn newton_many(
+        &self,
+        starts: &[(f64, f64, f64)],
+        ys: f64,
+        tol: f64,
+        iters: &mut u64,
+    ) -> Vec<Option<ScreenSample>> {
+        let d = self.sc.dom;
+        let mut out = vec![None; starts.len()];
+        let mut active: Vec<(usize, f64, f64)> = starts
+            .iter()
+            .enumerate()
+            .map(|(i, &(u, v, _))| (i, u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1)))
+            .collect();
+        let (mut bu, mut bv) = (Vec::new(), Vec::new());
+        for _ in 0..12 {
+            if active.is_empty() {
+                break;
+            }
+            bu.clear();
+            bv.clear();
+            bu.extend(active.iter().map(|a| a.1));
+            bv.extend(active.iter().map(|a| a.2));
+            let ss = if self.first_order {
+                self.sc.eval_first_batch(&bu, &bv)
+            } else {
+                self.sc.eval_batch(&bu, &bv)
+            };
+            let mut next = Vec::with_capacity(active.len());
+            for (&(i, u, v), s) in active.iter().zip(ss) {
+                let Some(s) = s else { continue };
+                let xp = starts[i].2;
+                let (f, g, det) = (s.y - ys, s.x - xp, s.jac());
+                let du = -(g * s.yv - s.xv * f) / det;
+                let dv = -(s.xu * f - s.yu * g) / det;
+                if !(du.is_finite() && dv.is_finite()) {
+                    continue;
+                }
+                if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
+                    let ok = tol.max(1e-6);
+                    if f.abs() < ok && g.abs() < ok {
+                        out[i] = Some(s);
+                    }
+                    continue;
+                }
+                if du.abs().max(dv.abs()) > 0.25 * self.ext {
+                    continue;
+                }
+                *iters += 1;
+                let (nu, nv) = ((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1));
+                if (nu, nv) != (u, v) {
+                    next.push((i, nu, nv));
+                }
+            }
+            active = next;
+        }
+        out
+    }
+
     /// Project (u, v) onto the level curve y = ys along ∇y.
     fn project(&self, mut u: f64, mut v: f64, ys: f64) -> Option<ScreenSample> {
         let d = self.sc.dom;
         for _ in 0..10 {
-            let s = self.sc.eval(u, v)?;
+            let s = self.ev(u, v)?;
             let f = s.y - ys;
             let g2 = s.yu * s.yu + s.yv * s.yv;
             if f.abs() < 1e-10 {
@@ -252,7 +332,7 @@ impl<'a> XScan<'a> {
             u = nu;
             v = nv;
         }
-        let s = self.sc.eval(u, v)?;
+        let s = self.ev(u, v)?;
         ((s.y - ys).abs() < 1e-6).then_some(s)
     }
 
@@ -293,7 +373,8 @@ impl<'a> XScan<'a> {
     }
 
     /// One predictor–corrector step along the level curve from q in the
-    /// direction s·(−y_v, y_u), about a quarter pixel long.
+    /// direction s·(−y_v, y_u), about a pixel long (shorter where the
+    /// tangent turns by more than ~25°: the corrector's check).
     fn advance(
         &self,
         q: &ScreenSample,
@@ -313,7 +394,7 @@ impl<'a> XScan<'a> {
         let (tu, tv) = (tu / l, tv / l);
         let speed = (q.p.pu * tu + q.p.pv * tv).length() / cam.pixel_size_at(q.z);
         let mut h = if speed > 0.0 {
-            0.25 / speed
+            1.0 / speed
         } else {
             f64::INFINITY
         };
@@ -431,6 +512,70 @@ impl<'a> XScan<'a> {
         self.try_newton_tol(cur, sigma, ys, xp, 1e-9, st)
     }
 
+    /// The linear prediction (du, dv) of the step from `cur` to pixel xp
+    /// of scan line ys; `None` where J has the wrong sign or nearly
+    /// vanishes (the end of the piece is near).
+    fn predict(&self, cur: &ScreenSample, sigma: f64, ys: f64, xp: f64) -> Option<(f64, f64)> {
+        let jc = cur.jac();
+        let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
+        if jc * sigma <= 1e-3 * jscale {
+            return None;
+        }
+        let (g, f) = (xp - cur.x, ys - cur.y);
+        Some((
+            (g * cur.yv - cur.xv * f) / jc,
+            (cur.xu * f - cur.yu * g) / jc,
+        ))
+    }
+
+    /// The checks of [`try_newton`](Self::try_newton) that keep a solution
+    /// q for pixel xp on the piece of its predecessor `cur`.
+    fn on_piece(&self, cur: &ScreenSample, q: &ScreenSample, sigma: f64, ys: f64, xp: f64) -> bool {
+        let Some((pu, pv)) = self.predict(cur, sigma, ys, xp) else {
+            return false;
+        };
+        let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
+        let pred = pu.abs().max(pv.abs());
+        q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext
+    }
+
+    /// Pixels j, j+1, … (at most `k`) of a piece solved together from
+    /// `cur`: starts predicted linearly from `cur`, Newton for all of them
+    /// in lockstep ([`newton_many`](Self::newton_many)), then accepted in
+    /// order while each passes the checks of
+    /// [`try_newton`](Self::try_newton) against its predecessor. Returns
+    /// the accepted solutions.
+    fn run_of_pixels(
+        &self,
+        cur: &ScreenSample,
+        j: usize,
+        k: usize,
+        sigma: f64,
+        ys: f64,
+        st: &mut XStats,
+    ) -> Vec<ScreenSample> {
+        let mut starts = Vec::with_capacity(k);
+        for i in 0..k {
+            let xp = self.xpix(j + i);
+            let Some((pu, pv)) = self.predict(cur, sigma, ys, xp) else {
+                return Vec::new();
+            };
+            starts.push((cur.u + pu, cur.v + pv, xp));
+        }
+        let sols = self.newton_many(&starts, ys, 1e-9, &mut st.pixel_iters);
+        let mut out: Vec<ScreenSample> = Vec::with_capacity(k);
+        let mut prev = *cur;
+        for (i, q) in sols.into_iter().enumerate() {
+            let Some(q) = q else { break };
+            if !self.on_piece(&prev, &q, sigma, ys, self.xpix(j + i)) {
+                break;
+            }
+            out.push(q);
+            prev = q;
+        }
+        out
+    }
+
     /// [`try_newton`](Self::try_newton) to a tolerance of `tol` pixels.
     pub(crate) fn try_newton_tol(
         &self,
@@ -441,15 +586,8 @@ impl<'a> XScan<'a> {
         tol: f64,
         st: &mut XStats,
     ) -> Option<ScreenSample> {
-        let jc = cur.jac();
-        let jscale = (cur.xu * cur.yv).abs() + (cur.xv * cur.yu).abs();
-        if jc * sigma <= 1e-3 * jscale {
-            return None;
-        }
         // Linear prediction from the previous solution.
-        let (g, f) = (xp - cur.x, ys - cur.y);
-        let pu = (g * cur.yv - cur.xv * f) / jc;
-        let pv = (cur.xu * f - cur.yu * g) / jc;
+        let (pu, pv) = self.predict(cur, sigma, ys, xp)?;
         let q = self.newton_tol(cur.u + pu, cur.v + pv, ys, xp, tol, &mut st.pixel_iters)?;
         let jump = (q.u - cur.u).abs().max((q.v - cur.v).abs());
         let pred = pu.abs().max(pv.abs());
@@ -479,9 +617,34 @@ impl<'a> XScan<'a> {
         st: &mut XStats,
     ) -> End {
         let sigma = -s;
+        let mut run = 4usize;
+        let mut polled = j;
         while j < self.width {
-            if j % 32 == 0 && self.cancel.is_some_and(|c| c.is_cancelled()) {
+            if (j % 32 == 0 || j >= polled + 32) && self.cancel.is_some_and(|c| c.is_cancelled()) {
                 return End::Failed;
+            }
+            polled = j;
+            if self.batch && self.width - j >= 2 {
+                let k = run.min(self.width - j);
+                let got = self.run_of_pixels(&cur, j, k, sigma, ys, st);
+                let n = got.len();
+                for q in got {
+                    self.record(hits, j, Self::exact_hit(&q));
+                    st.pixel_solves += 1;
+                    cur = q;
+                    j += 1;
+                }
+                run = if n == k {
+                    (2 * run).min(32)
+                } else {
+                    (run / 2).max(2)
+                };
+                if n == k {
+                    continue;
+                }
+                if j >= self.width {
+                    break;
+                }
             }
             let xp = self.xpix(j);
             let q = match self.try_newton(&cur, sigma, ys, xp, st) {
@@ -494,23 +657,24 @@ impl<'a> XScan<'a> {
                     Err(e) => return e,
                 },
             };
-            self.record(
-                hits,
-                j,
-                Hit {
-                    z: q.z,
-                    u: q.u,
-                    v: q.v,
-                    jac: q.jac(),
-                    p: q.p.p,
-                    n: DVec3::ZERO,
-                    pn: q.p.pu.cross(q.p.pv),
-                },
-            );
+            self.record(hits, j, Self::exact_hit(&q));
             cur = q;
             j += 1;
         }
         End::Done
+    }
+
+    /// The hit of an exactly solved pixel.
+    fn exact_hit(q: &ScreenSample) -> Hit {
+        Hit {
+            z: q.z,
+            u: q.u,
+            v: q.v,
+            jac: q.jac(),
+            p: q.p.p,
+            n: DVec3::ZERO,
+            pn: q.p.pu.cross(q.p.pv),
+        }
     }
 
     /// Scan one piece from `start` in direction s (x increasing).

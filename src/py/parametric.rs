@@ -58,17 +58,25 @@ fn size(name: &str, n: i64) -> PyResult<usize> {
 /// `max_normal_error` (sampled: degrees, default 0.5; more samples where the
 /// interpolated normal would be further off), `grid` (nodes per parameter of
 /// the maxima search and the safety net, default 97), `extrapolate`
-/// (tracker extrapolation between scan lines, default True), and the
+/// (tracker extrapolation between scan lines, default True),
+/// `safety_net` (default True; False stops the traced-curve safety net
+/// from adding trackers the tracking missed after a band's first scan
+/// line — a check of the tracking alone, not a speed option), and the
 /// shading options. `fcol.render` calls it for `fcol.Parametric` surfaces.
 ///
 /// `image.stats` holds the counters of the run: `maxima`, `saddles`,
 /// `parabolic_maxima` (§3.4), `created_at_saddles` (§3.2.2.4),
 /// `silhouette_y_extrema` (curtain folds and
-/// stationary points on the silhouette), `newton_per_update` (Newton
+/// stationary points on the silhouette), `curtain_folds` (§3.4: maxima of
+/// y along the silhouette found by the pre-scan) and
+/// `created_at_curtain_folds`, `created_at_left_border` (a tracked curve
+/// crossed the left image border), `created_at_seams` (a silhouette
+/// continued across a closed surface's seam), `newton_per_update` (Newton
 /// corrections per tracker update) and `newton_per_update_tenth_px` (those
 /// larger than 0.1 px, the seed's stopping rule), `trackers_lost`
-/// (non-convergence, §3.2.3), `created_at_maxima`, `created_at_folds`,
-/// `net_added` (trackers the safety net supplied), `newton_per_pixel`,
+/// (non-convergence, §3.2.3), `created_at_maxima` (interior, edge, edge-end
+/// and corner maxima), `created_at_folds`, `net_added` (trackers the safety
+/// net had to supply: the tracking missed them), `newton_per_pixel`,
 /// `fold_walks`, `border_walks`, `convergence_failures` (X-scan
 /// continuations that gave up; pixels may be missing there), and for the
 /// sampled scan `x_samples` (span ends used), `x_samples_refined` (spans
@@ -164,6 +172,9 @@ fn render_parametric_py<'py>(
     }
     if let Some(e) = o.take::<bool>("extrapolate")? {
         opts.extrapolate = e;
+    }
+    if let Some(e) = o.take::<bool>("safety_net")? {
+        opts.safety_net = e;
     }
     o.finish("render(method=\"scanline\")")?;
     let v = view.view;

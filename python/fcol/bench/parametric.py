@@ -9,7 +9,10 @@ scan-line time per image row the surface covers (the seed reports 0.4 s per
 scan line for a sphere); ``newton_upd`` is the mean number of Newton
 corrections per tracker update (full precision) and ``newton_upd_0.1px``
 the number larger than a tenth of a pixel (the seed's stopping rule: 2.5
-plain, under 1 with extrapolation). For the sampled X scan ``theta_upd``
+plain, under 1 with extrapolation); ``net_added`` counts the trackers the
+safety net had to add. The ``callables`` rows draw the same surface given
+as three NumPy-vectorised callables (``calls``: Python calls, one per
+callable and batch). For the sampled X scan ``theta_upd``
 and ``theta_upd_plain`` are the Newton corrections per update of its
 normal-angle trackers with and without the §3.5 extrapolation.
 
@@ -115,7 +118,25 @@ def run(out_dir: Path, quick: bool) -> list[dict[str, Any]]:
                         newton_upd=s["newton_per_update"], **{"newton_upd_0.1px": s["newton_per_update_tenth_px"],
                         "plain_upd_0.1px": plain["newton_per_update_tenth_px"]},
                         newton_px=s["newton_per_pixel"], samples=img.samples,
-                        failures=s["convergence_failures"], note=f"reference {t_ref:.1f} s"))
+                        failures=s["convergence_failures"], net_added=s["net_added"],
+                        curtain_folds=s["curtain_folds"], note=f"reference {t_ref:.1f} s"))
+        # The same surface as three NumPy-vectorised callables (exact X
+        # scan, a smaller image): Python calls and time.
+        cpx = 64
+        ns = {"cos": np.cos, "sin": np.sin}
+        fns = [lambda u, v, e=e: eval(e, ns, {"u": u, "v": v}) + 0 * u for e in (x, y, z)]  # noqa: S307
+        csurf = fcol.Parametric(*fns, domain=dom)
+        c0 = csurf.calls
+        t0 = time.perf_counter()
+        cimg = fcol.render(csurf, view, cpx, cpx, outputs=("depth", "mask"))
+        tc = time.perf_counter() - t0
+        calls = csurf.calls - c0
+        eimg = fcol.render(surf, view, cpx, cpx, outputs=("depth", "mask"))
+        rows.append({"surface": name, "view": view.projection, "size": f"{cpx}²", "method": "scanline newton, callables",
+                     "ms": tc * 1e3, "calls": calls, "samples": cimg.samples,
+                     "points_per_call": 3 * cimg.samples / max(calls, 1),
+                     "mask_bad": int((cimg.mask != eimg.mask).sum()),
+                     "note": "three NumPy callables; mask_bad against the expression render"})
         # Sampled X scan: the seed's fixed 16 per turn, and error-driven.
         sampled_rows = []
         for label, opts in (("scanline sampled 16/turn", dict(samples_per_turn=16, max_normal_error=90.0)),
