@@ -59,29 +59,7 @@ fn o3(a: Proj, b: Proj, c: Proj) -> i32 {
 
 /// Insert `q` into the strictly convex upper hull `h` (sorted by w).
 pub fn insert(h: &mut Vec<Proj>, q: Proj) {
-    let mut pos = h.partition_point(|v| v.w < q.w);
-    let mut end = pos; // h[pos..end] will be replaced by q
-    if pos < h.len() && h[pos].w == q.w {
-        if h[pos].zz >= q.zz {
-            return;
-        }
-        end = pos + 1;
-    }
-    if pos > 0 && end < h.len() && o3(h[pos - 1], h[end], q) <= 0 {
-        return; // on or below the hull
-    }
-    while end + 1 < h.len() && o3(q, h[end], h[end + 1]) >= 0 {
-        end += 1;
-    }
-    while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) >= 0 {
-        pos -= 1;
-    }
-    if end == pos {
-        h.insert(pos, q);
-    } else {
-        h[pos] = q;
-        h.drain(pos + 1..end);
-    }
+    insert_ordered::<false>(h, q);
 }
 
 /// [`insert`] for a hull sorted by decreasing w (the same hull, reversed:
@@ -111,21 +89,30 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     if q.w > near.w && q.w < far.w && q.zz < far.zz.min(near.zz) {
         return; // strictly under the hull
     }
-    let mut pos = h.partition_point(|v| v.w > q.w);
-    let mut end = pos;
+    insert_ordered::<true>(h, q);
+}
+
+/// The general insertion into a hull sorted by increasing w, or by
+/// decreasing w when `DESC` (every orientation then flips sign).
+#[inline]
+fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
+    let o = |a, b, c| if DESC { -o3(a, b, c) } else { o3(a, b, c) };
+    let n = h.len();
+    let mut pos = h.partition_point(|v| if DESC { v.w > q.w } else { v.w < q.w });
+    let mut end = pos; // h[pos..end] will be replaced by q
     if pos < n && h[pos].w == q.w {
         if h[pos].zz >= q.zz {
             return;
         }
         end = pos + 1;
     }
-    if pos > 0 && end < n && o3(h[pos - 1], h[end], q) >= 0 {
+    if pos > 0 && end < n && o(h[pos - 1], h[end], q) <= 0 {
         return; // on or below the hull
     }
-    while end + 1 < n && o3(q, h[end], h[end + 1]) <= 0 {
+    while end + 1 < n && o(q, h[end], h[end + 1]) >= 0 {
         end += 1;
     }
-    while pos >= 2 && o3(h[pos - 2], h[pos - 1], q) <= 0 {
+    while pos >= 2 && o(h[pos - 2], h[pos - 1], q) >= 0 {
         pos -= 1;
     }
     if end == pos {
