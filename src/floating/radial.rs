@@ -192,8 +192,9 @@ fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
 /// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
 /// that plane can pass through a notch (next to a crest) that the pixel's
 /// own ray does not. Unrevealed pixels between two revealed neighbours
-/// (above and below, or left and right) at similar depths are searched on
-/// their own ray, between the neighbours' hits.
+/// (above and below, or left and right, next to it or, across a gap of two
+/// pixels, one further on) at similar depths are searched on their own ray,
+/// between the neighbours' hits.
 fn fill_holes(
     ctx: &Ctx<'_>,
     off: (f64, f64),
@@ -216,13 +217,27 @@ fn fill_holes(
             }
             let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
             let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
-            if !(vertical || lateral) {
+            // The first pixel of a gap of two (its partner is searched next,
+            // between it and the far neighbour).
+            let vertical2 = i > 0
+                && i + 2 < h
+                && set[(i - 1) * w + j]
+                && !set[(i + 1) * w + j]
+                && set[(i + 2) * w + j];
+            let lateral2 = j > 0
+                && j + 2 < w
+                && set[i * w + j - 1]
+                && !set[i * w + j + 1]
+                && set[i * w + j + 2];
+            if !(vertical || lateral || vertical2 || lateral2) {
                 continue;
             }
             let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
             let pairs = [
-                (i > 0 && i + 1 < h).then(|| ((i - 1) * w + j, (i + 1) * w + j)),
-                (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
+                vertical.then(|| ((i - 1) * w + j, (i + 1) * w + j)),
+                lateral.then(|| (i * w + j - 1, i * w + j + 1)),
+                vertical2.then(|| ((i - 1) * w + j, (i + 2) * w + j)),
+                lateral2.then(|| (i * w + j - 1, i * w + j + 2)),
             ];
             for (a, b) in pairs.into_iter().flatten() {
                 let (Some(l1), Some(l2)) = (lam_of(set, depth, a, dir), lam_of(set, depth, b, dir))
@@ -1104,13 +1119,37 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             hs.is_finite().then_some(p.z - hs.f)
         };
         let outside = side as f64;
-        let mut la = lo.max(0.0);
+        // The part of the ray over the domain (a ray that grazes a corner
+        // of it spends only a few footprints there).
+        let (mut l_in, mut l_out) = (0.0f64, f64::INFINITY);
+        for (oc, dc, a, b) in [(e.x, dir.x, dom.u0, dom.u1), (e.y, dir.y, dom.v0, dom.v1)] {
+            if dc == 0.0 {
+                if oc < a || oc > b {
+                    return None;
+                }
+            } else {
+                let (p, q) = ((a - oc) / dc, (b - oc) / dc);
+                l_in = l_in.max(p.min(q));
+                l_out = l_out.min(p.max(q));
+            }
+        }
+        // Just inside the edges (rounding).
+        let pad = 1e-9 * fp;
+        let (l_in, l_out) = (l_in + pad, l_out - pad);
+        let hi = hi.min(l_out);
+        let mut la = lo.max(l_in);
+        if !(la <= hi) {
+            return None;
+        }
         let mut ga = h(self, la);
         for _ in 0..3 {
             match ga {
                 Some(g) if g * outside > 0.0 => break,
                 _ => {
-                    la = (la - 16.0 * fp).max(0.0);
+                    if la <= l_in {
+                        break;
+                    }
+                    la = (la - 16.0 * fp).max(l_in);
                     ga = h(self, la);
                 }
             }
