@@ -1138,7 +1138,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let (l_in, l_out) = (l_in + pad, l_out - pad);
         let hi = hi.min(l_out);
         let mut la = lo.max(l_in);
-        if !(la <= hi) {
+        if !matches!(
+            la.partial_cmp(&hi),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
             return None;
         }
         let mut ga = h(self, la);

@@ -489,7 +489,7 @@ fn azimuth_bins_match_the_exact_angle() {
         }
         // Walked to from nearby bins (or from none): the same bin.
         for k in 0..5_000 {
-            let phi = -3.14159 + k as f64 * 1.2566e-3;
+            let phi = -std::f64::consts::PI + 2e-6 + k as f64 * 1.2566e-3;
             let (y, x) = phi.sin_cos();
             let b = bins.of(x, y);
             for d in [0usize, 1, 2, 3, 7, 50] {
