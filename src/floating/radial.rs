@@ -13,7 +13,8 @@
 //! "columns" of a perspective view converge there). A vertical plane cuts a
 //! height field in a graph w(ρ) over the horizontal distance ρ from the eye,
 //! and along every ray in the plane ρ increases, so the §4.2 sweep (front to
-//! back, covered elevation angles θ = atan2(w − E_w, ρ) instead of rows) is
+//! back, covered elevations instead of rows: the pseudo-angle tan(θ/2) of
+//! θ = atan2(w − E_w, ρ), monotone in θ and free of transcendental calls) is
 //! exact. Pixels are grouped by the azimuth φ of their ray into bins narrow
 //! enough that a pixel lies within half a pixel of its bin's plane; each pixel
 //! takes its span from its bin's sweep (by its own θ) and, with `refine`, is
@@ -31,7 +32,8 @@ use rayon::prelude::*;
 
 type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
 
-/// One pixel's ray in the radial frame: pixel index and elevation θ.
+/// One pixel's ray in the radial frame: pixel index and pseudo-elevation
+/// tan(θ/2) (see [`elevation`]).
 #[derive(Debug, Clone, Copy)]
 struct Ray {
     k: u32,
@@ -84,21 +86,23 @@ pub fn render_radial(
     }
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
-    let bin_of = |dir: DVec3| -> usize {
-        let x = (fast_atan2(dir.y, dir.x) + PI) / (2.0 * PI);
-        ((x * nb as f64) as usize).min(nb - 1)
-    };
-    // Bin and elevation of every pixel (rows in parallel), then a counting
-    // sort by bin.
-    let per_px: Vec<(u32, f64)> = (0..w * h)
-        .into_par_iter()
-        .map(|k| {
-            let (i, j) = (k / w, k % w);
-            let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
-            let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-            (bin_of(dir) as u32, fast_atan2(dir.z, hl))
-        })
-        .collect();
+    let bins = Bins::new(nb);
+    // Bin and pseudo-elevation of every pixel (rows in parallel; along a
+    // row each pixel's bin is walked to from its left neighbour's), then a
+    // counting sort by bin.
+    let mut per_px = vec![(0u32, 0.0f64); w * h];
+    per_px
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(i, row)| {
+            let mut b = usize::MAX;
+            for (j, slot) in row.iter_mut().enumerate() {
+                let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+                let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
+                b = bins.near(b, dir.x, dir.y);
+                *slot = (b as u32, elevation(dir.z, hl));
+            }
+        });
     let mut start = vec![0usize; nb + 1];
     for &(b, _) in &per_px {
         start[b as usize + 1] += 1;
@@ -161,15 +165,13 @@ pub fn render_radial(
     Ok((all, stats))
 }
 
-/// Screen pixels per radian of elevation along the plane of azimuth φ, over
-/// the elevations [θ0, θ1] of a bin's rays (probed, with a 10 % margin), so
-/// that the sweep's row gaps measure pixels on the screen.
+/// Screen pixels per unit of the pseudo-elevation s = tan(θ/2) (see
+/// [`elevation`]) along the plane of azimuth φ, over the elevations
+/// [s0, s1] of a bin's rays (probed, with a 10 % margin), so that the
+/// sweep's row gaps measure pixels on the screen.
 fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
     let (sp, cp) = phi.sin_cos();
-    let at = |th: f64| {
-        let (s, c) = th.sin_cos();
-        cam.to_screen(cam.eye + DVec3::new(c * cp, c * sp, s))
-    };
+    let at = |s: f64| cam.to_screen(cam.eye + direction(DVec2::new(cp, sp), s));
     let delta = 1e-6;
     let mut m: f64 = 0.0;
     for k in 0..=4 {
@@ -190,8 +192,9 @@ fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
 /// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
 /// that plane can pass through a notch (next to a crest) that the pixel's
 /// own ray does not. Unrevealed pixels between two revealed neighbours
-/// (above and below, or left and right) at similar depths are searched on
-/// their own ray, between the neighbours' hits.
+/// (above and below, or left and right, next to it or, across a gap of two
+/// pixels, one further on) at similar depths are searched on their own ray,
+/// between the neighbours' hits.
 fn fill_holes(
     ctx: &Ctx<'_>,
     off: (f64, f64),
@@ -214,13 +217,27 @@ fn fill_holes(
             }
             let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
             let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
-            if !(vertical || lateral) {
+            // The first pixel of a gap of two (its partner is searched next,
+            // between it and the far neighbour).
+            let vertical2 = i > 0
+                && i + 2 < h
+                && set[(i - 1) * w + j]
+                && !set[(i + 1) * w + j]
+                && set[(i + 2) * w + j];
+            let lateral2 = j > 0
+                && j + 2 < w
+                && set[i * w + j - 1]
+                && !set[i * w + j + 1]
+                && set[i * w + j + 2];
+            if !(vertical || lateral || vertical2 || lateral2) {
                 continue;
             }
             let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
             let pairs = [
-                (i > 0 && i + 1 < h).then(|| ((i - 1) * w + j, (i + 1) * w + j)),
-                (j > 0 && j + 1 < w).then(|| (i * w + j - 1, i * w + j + 1)),
+                vertical.then(|| ((i - 1) * w + j, (i + 1) * w + j)),
+                lateral.then(|| (i * w + j - 1, i * w + j + 1)),
+                vertical2.then(|| ((i - 1) * w + j, (i + 2) * w + j)),
+                lateral2.then(|| (i * w + j - 1, i * w + j + 2)),
             ];
             for (a, b) in pairs.into_iter().flatten() {
                 let (Some(l1), Some(l2)) = (lam_of(set, depth, a, dir), lam_of(set, depth, b, dir))
@@ -261,6 +278,134 @@ fn fill_holes(
         }
     }
     stats.refine_evals += sw.stats.refine_evals;
+}
+
+/// The sweep's elevation coordinate of the direction (h, z) (horizontal
+/// distance h ≥ 0, height z): tan(θ/2) = z / (h + √(h² + z²)) for the
+/// elevation θ = atan2(z, h). Monotone in θ over (−π, π) (so it orders rays
+/// and samples as θ does) and without a transcendental call;
+/// dtan(θ/2)/dθ = (1 + tan²(θ/2)) / 2 lies in [½, 1] for |θ| ≤ π/2.
+#[inline]
+pub(crate) fn elevation(z: f64, h: f64) -> f64 {
+    let r = (h * h + z * z).sqrt();
+    if r > 0.0 {
+        z / (h + r)
+    } else {
+        0.0
+    }
+}
+
+/// The unit direction of azimuth (cos φ, sin φ) and pseudo-elevation
+/// s = tan(θ/2) (see [`elevation`]).
+#[inline]
+fn direction(cs: DVec2, s: f64) -> DVec3 {
+    let q = 1.0 / (1.0 + s * s);
+    let (c, sn) = ((1.0 - s * s) * q, 2.0 * s * q);
+    DVec3::new(c * cs.x, c * cs.y, sn)
+}
+
+/// Azimuth bins: bin b holds the horizontal directions of azimuth φ in
+/// [−π + 2πb/n, −π + 2π(b+1)/n). The bin of a direction is estimated by a
+/// cheap arctangent and settled exactly by the signs of its cross products
+/// with the bin's two bounding directions (no atan2 per pixel).
+pub(crate) struct Bins {
+    n: usize,
+    /// Bounding directions (cos, sin) of the n + 1 bin edges.
+    edge: Vec<DVec2>,
+}
+
+impl Bins {
+    pub(crate) fn new(n: usize) -> Self {
+        use std::f64::consts::PI;
+        let edge = (0..=n)
+            .map(|b| {
+                let (s, c) = (-PI + 2.0 * PI * b as f64 / n as f64).sin_cos();
+                DVec2::new(c, s)
+            })
+            .collect();
+        Bins { n, edge }
+    }
+
+    #[inline]
+    pub(crate) fn of(&self, x: f64, y: f64) -> usize {
+        use std::f64::consts::PI;
+        let n = self.n;
+        if n < 8 || !(x.is_finite() && y.is_finite()) {
+            // Bins as wide as a quadrant: the exact arctangent.
+            let f = (fast_atan2(y, x) + PI) / (2.0 * PI);
+            return ((f * n as f64) as usize).min(n - 1);
+        }
+        let f = (approx_atan2(y, x) + PI) / (2.0 * PI);
+        let mut b = ((f * n as f64).max(0.0) as usize).min(n - 1);
+        // (x, y) lies counter-clockwise of edge e when e × (x, y) ≥ 0.
+        let ccw = |e: DVec2| e.x * y - e.y * x >= 0.0;
+        while b > 0 && !ccw(self.edge[b]) {
+            b -= 1;
+        }
+        while b + 1 < n && ccw(self.edge[b + 1]) {
+            b += 1;
+        }
+        b
+    }
+}
+
+impl Bins {
+    /// [`Bins::of`], walked to from bin `b0` (a neighbouring pixel's): the
+    /// same bin, as the edge tests single it out, in a few comparisons.
+    #[inline]
+    pub(crate) fn near(&self, b0: usize, x: f64, y: f64) -> usize {
+        let n = self.n;
+        if b0 >= n || n < 8 || !(x.is_finite() && y.is_finite()) {
+            return self.of(x, y);
+        }
+        let ccw = |e: DVec2| e.x * y - e.y * x >= 0.0;
+        let mut b = b0;
+        // Edges 0 and n are the same direction (φ = ±π): a walk across it
+        // starts afresh.
+        for _ in 0..4 {
+            if !ccw(self.edge[b]) {
+                if b == 0 {
+                    break;
+                }
+                b -= 1;
+            } else if ccw(self.edge[b + 1]) {
+                if b + 1 == n {
+                    break;
+                }
+                b += 1;
+            } else {
+                // Between edges b and b + 1 (each within π of the other).
+                return b;
+            }
+        }
+        self.of(x, y)
+    }
+}
+
+/// atan2 to about 1e-5 rad (an odd polynomial on the octant), the estimate
+/// that [`Bins::of`] settles.
+#[inline]
+fn approx_atan2(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ax < ay { (ax, ay) } else { (ay, ax) };
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let a = lo / hi;
+    let s = a * a;
+    let mut r = (((-0.046_496_474_9 * s + 0.159_314_22) * s - 0.327_622_764) * s) * a + a;
+    if ay > ax {
+        r = FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 {
+        -r
+    } else {
+        r
+    }
 }
 
 /// atan2(y, x) to about 1e-15 rad: Cephes' `atan` (range reduction to |z| ≤ tan(π/8) and a
@@ -382,11 +527,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let (_, d) = cam.ray(i + self.off.0, j + self.off.1);
                 let hl = (d.x * d.x + d.y * d.y).sqrt();
                 let th = ray.theta;
-                let row = |t: f64| {
-                    let (s, c) = t.sin_cos();
-                    let q = DVec3::new(c * d.x / hl.max(1e-300), c * d.y / hl.max(1e-300), s);
-                    cam.to_screen(cam.eye + q).y
-                };
+                let az = DVec2::new(d.x, d.y) / hl.max(1e-300);
+                let row = |s: f64| cam.to_screen(cam.eye + direction(az, s)).y;
                 let rate = ((row(th + delta) - row(th - delta)) / (2.0 * delta)).abs();
                 let half = if rate.is_finite() && rate > 0.0 && hl > 1e-12 {
                     0.5 * ppr / rate
@@ -608,10 +750,12 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
         let wr = hs.f - e.z;
-        let theta = fast_atan2(wr, rho);
+        let theta = elevation(wr, rho);
         let f_rho = hs.fu * self.eh.x + hs.fv * self.eh.y;
-        // dθ/dρ = (ρ f_ρ − w') / (ρ² + w'²).
-        let dth = (rho * f_rho - wr) / (rho * rho + wr * wr).max(1e-300);
+        // dθ/dρ = (ρ f_ρ − w') / (ρ² + w'²), and ds/dθ = (1 + s²)/2 for
+        // the pseudo-elevation s = tan(θ/2).
+        let dth =
+            0.5 * (1.0 + theta * theta) * (rho * f_rho - wr) / (rho * rho + wr * wr).max(1e-300);
         let p = DVec3::new(uv.x, uv.y, hs.f);
         let n = hs.normal();
         let shade =
@@ -975,13 +1119,40 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             hs.is_finite().then_some(p.z - hs.f)
         };
         let outside = side as f64;
-        let mut la = lo.max(0.0);
+        // The part of the ray over the domain (a ray that grazes a corner
+        // of it spends only a few footprints there).
+        let (mut l_in, mut l_out) = (0.0f64, f64::INFINITY);
+        for (oc, dc, a, b) in [(e.x, dir.x, dom.u0, dom.u1), (e.y, dir.y, dom.v0, dom.v1)] {
+            if dc == 0.0 {
+                if oc < a || oc > b {
+                    return None;
+                }
+            } else {
+                let (p, q) = ((a - oc) / dc, (b - oc) / dc);
+                l_in = l_in.max(p.min(q));
+                l_out = l_out.min(p.max(q));
+            }
+        }
+        // Just inside the edges (rounding).
+        let pad = 1e-9 * fp;
+        let (l_in, l_out) = (l_in + pad, l_out - pad);
+        let hi = hi.min(l_out);
+        let mut la = lo.max(l_in);
+        if !matches!(
+            la.partial_cmp(&hi),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
+            return None;
+        }
         let mut ga = h(self, la);
         for _ in 0..3 {
             match ga {
                 Some(g) if g * outside > 0.0 => break,
                 _ => {
-                    la = (la - 16.0 * fp).max(0.0);
+                    if la <= l_in {
+                        break;
+                    }
+                    la = (la - 16.0 * fp).max(l_in);
                     ga = h(self, la);
                 }
             }

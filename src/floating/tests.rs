@@ -466,3 +466,56 @@ fn hermite_range_finds_the_extremum() {
     let (lo, hi) = column::hermite_range(1.0, 3.0, 2.0, 2.0);
     assert!(lo == 1.0 && hi == 3.0, "{lo} {hi}");
 }
+
+#[test]
+fn azimuth_bins_match_the_exact_angle() {
+    use std::f64::consts::PI;
+    // Bins::of agrees with the bin of the exact azimuth wherever that angle
+    // is not within rounding of a bin edge, for bin counts large and small.
+    for n in [1usize, 3, 7, 8, 64, 1000, 4099] {
+        let bins = radial::Bins::new(n);
+        let width = 2.0 * PI / n as f64;
+        for k in 0..20_000 {
+            let phi = -PI + (k as f64 + 0.37) * 2.0 * PI / 20_000.0;
+            let (y, x) = phi.sin_cos();
+            let f = (y.atan2(x) + PI) / width;
+            if (f - f.round()).abs() < 1e-9 {
+                continue;
+            }
+            let want = (f as usize).min(n - 1);
+            for r in [1.0, 1e-3, 7e4] {
+                assert_eq!(bins.of(r * x, r * y), want, "n = {n}, phi = {phi}");
+            }
+        }
+        // Walked to from nearby bins (or from none): the same bin.
+        for k in 0..5_000 {
+            let phi = -std::f64::consts::PI + 2e-6 + k as f64 * 1.2566e-3;
+            let (y, x) = phi.sin_cos();
+            let b = bins.of(x, y);
+            for d in [0usize, 1, 2, 3, 7, 50] {
+                for b0 in [b.saturating_sub(d), (b + d).min(n - 1), usize::MAX] {
+                    assert_eq!(bins.near(b0, x, y), b, "n = {n}, phi = {phi}, from {b0}");
+                }
+            }
+        }
+        // The negative x axis on either side of the ±π cut.
+        assert_eq!(bins.of(-1.0, 1e-12), n - 1);
+        assert_eq!(bins.of(-1.0, -1e-12), 0);
+    }
+}
+
+#[test]
+fn pseudo_elevation_is_tan_half_angle_and_monotone() {
+    let mut prev = f64::NEG_INFINITY;
+    for k in -2000..=2000 {
+        let th = k as f64 * (std::f64::consts::FRAC_PI_2 / 2000.0);
+        let (z, h) = th.sin_cos();
+        for r in [1.0, 1e-6, 3e5] {
+            let s = radial::elevation(r * z, r * h.max(0.0));
+            assert!((s - (0.5 * th).tan()).abs() <= 4e-16, "θ = {th}: {s}");
+        }
+        let s = radial::elevation(z, h.max(0.0));
+        assert!(s >= prev, "not monotone at θ = {th}");
+        prev = s;
+    }
+}
