@@ -140,14 +140,16 @@ struct Step {
     w: f64,
 }
 
-/// Walk line `l` over `steps`, with its hull stack of `k` pairs at `stack`;
-/// returns the new stack length. `CURV`: whether c ≠ 0 (then `wl` = l·wperp
-/// is added to the distances).
+/// Walk line `l` over `steps`, with its hull stack of `k` vertices at
+/// `sw`, `sz` (distances and heights); returns the new stack length. `CURV`:
+/// whether c ≠ 0 (then `wl` = l·wperp is added to the distances). The top
+/// vertex is kept in registers: the stack in memory is only read below it,
+/// so no load waits on the store of the cell just before.
 ///
 /// # Safety
 /// `z` and `out` hold the grid, whose cell at perpendicular index v of a step
-/// is `q0 + (v − sh)·sv` for 0 ≤ v < nperp; `stack` has room for `k` plus
-/// one pair per step.
+/// is `q0 + (v − sh)·sv` for 0 ≤ v < nperp; `sw` and `sz` have room for `k`
+/// plus one value per step.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 unsafe fn walk<const CURV: bool>(
@@ -159,10 +161,16 @@ unsafe fn walk<const CURV: bool>(
     sv: usize,
     c: f64,
     wl: f64,
-    stack: *mut [f64; 2],
+    sw: *mut f64,
+    sz: *mut f64,
     mut k: usize,
 ) -> usize {
     let off = l * sv as i64;
+    let (mut tw, mut tz) = if k > 0 {
+        (*sw.add(k - 1), *sz.add(k - 1))
+    } else {
+        (0.0, 0.0)
+    };
     for s in steps {
         // the line's cell at this step is on the grid when 0 ≤ l + sh < nperp
         if ((l + s.sh) as u64) >= nperp as u64 {
@@ -181,34 +189,29 @@ unsafe fn walk<const CURV: bool>(
         } else {
             (s.w, h)
         };
-        if k >= 2 {
-            let [mut tw, mut tz] = *stack.add(k - 1);
-            loop {
-                let [sw, sz] = *stack.add(k - 2);
-                // pop t while it is on or under the segment from the new
-                // point to s
-                if (sz - zz) * (tw - w) >= (tz - zz) * (sw - w) {
-                    k -= 1;
-                    (tw, tz) = (sw, sz);
-                    if k < 2 {
-                        break;
-                    }
-                } else {
-                    break;
-                }
+        // pop the top t while it is on or under the segment from the new
+        // point to the vertex p below it
+        while k >= 2 {
+            let (pw, pz) = (*sw.add(k - 2), *sz.add(k - 2));
+            if (pz - zz) * (tw - w) >= (tz - zz) * (pw - w) {
+                k -= 1;
+                (tw, tz) = (pw, pz);
+            } else {
+                break;
             }
         }
         // The slope for now (rounded to f32: ≤ 3e-8 rad once turned into an
         // angle); the angles are taken in one vector pass.
         *out.get_unchecked_mut(q) = if k > 0 {
-            let [tw, tz] = *stack.add(k - 1);
             let slope = (tz - zz) / (tw - w);
             (if CURV { slope + 2.0 * c * w } else { slope }) as f32
         } else {
             f32::NEG_INFINITY
         };
-        *stack.add(k) = [w, zz];
+        *sw.add(k) = w;
+        *sz.add(k) = zz;
         k += 1;
+        (tw, tz) = (w, zz);
     }
     k
 }
@@ -275,11 +278,12 @@ fn lines_blocked(
         .collect();
     let chunk = if along_cols { CHUNK } else { CHUNK_ROWS };
     assert!(z.len() >= rows * cols && out.len() >= rows * cols);
-    // The hull stacks of the block's lines, flat, (w, Z) pairs: line b's
-    // stack is st[b·cap .. b·cap + len[b]] (a line has at most `nsteps`
-    // cells; the spare pairs stagger the stacks over the cache sets).
+    // The hull stacks of the block's lines, flat: line b's distances are
+    // st[2b·cap ..][.. len[b]] and its heights st[(2b + 1)·cap ..][.. len[b]]
+    // (a line has at most `nsteps` cells; the spare values stagger the
+    // stacks over the cache sets).
     let cap = nsteps + 3;
-    let mut st = vec![[0.0f64; 2]; cap * BLOCK as usize];
+    let mut st = vec![0.0f64; 2 * cap * BLOCK as usize];
     let mut len = [0usize; BLOCK as usize];
     let mut l0 = -smax;
     while l0 < nperp - smin {
@@ -296,16 +300,17 @@ fn lines_blocked(
             let (la, lb) = (l0.max(-cmax), l1.min(nperp - cmin));
             for l in la..lb {
                 let b = (l - l0) as usize;
-                let stack = st[b * cap..(b + 1) * cap].as_mut_ptr();
+                let (sw, sz) = st[2 * b * cap..(2 * b + 2) * cap].split_at_mut(cap);
+                let (sw, sz) = (sw.as_mut_ptr(), sz.as_mut_ptr());
                 // SAFETY: b < BLOCK since l0 ≤ la ≤ l < lb ≤ l1 ≤ l0 + BLOCK;
                 // the chunk is a range of `steps`; see `walk` for the cells.
                 unsafe {
                     let k = len.get_unchecked_mut(b);
                     *k = if c == 0.0 {
-                        walk::<false>(z, out, &steps[s0..s1], l, nperp, sv, 0.0, 0.0, stack, *k)
+                        walk::<false>(z, out, &steps[s0..s1], l, nperp, sv, 0.0, 0.0, sw, sz, *k)
                     } else {
                         let wl = l as f64 * wperp;
-                        walk::<true>(z, out, &steps[s0..s1], l, nperp, sv, c, wl, stack, *k)
+                        walk::<true>(z, out, &steps[s0..s1], l, nperp, sv, c, wl, sw, sz, *k)
                     };
                 }
             }
