@@ -178,7 +178,7 @@ unsafe fn walk<const CURV: bool>(
         }
         let q = (s.q0 + off) as usize;
         let h = *z.get_unchecked(q);
-        if h - h != 0.0 {
+        if !h.is_finite() {
             // ±inf or NaN: no data
             *out.get_unchecked_mut(q) = f32::NAN;
             continue;
