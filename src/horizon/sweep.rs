@@ -14,10 +14,13 @@
 //! accurate to a few 1e-8 rad (the output is float32), taken in a separate
 //! pass over the slopes (rounded to float32 meanwhile: at most 3e-8 rad).
 //!
-//! The lines are walked a block of neighbours at a time, one step for the
-//! whole block before the next: the block's cells at one step are adjacent
-//! rows of a column (or adjacent cells of a row), so every cache line of the
-//! grid is loaded once instead of once per line.
+//! The lines are walked a block of neighbours at a time, a few steps of one
+//! line before the same steps of the next (16 when the lines run along the
+//! rows, so those steps are adjacent cells of a row; 4 when they run along
+//! the columns, where the block's cells at one step are adjacent cells of a
+//! row): every cache line of the grid is loaded once instead of once per
+//! line. The distances along the direction are tabulated per step, and the
+//! top of each line's hull stack stays in registers while the line is walked.
 //!
 //! With `max_distance`, the cells ahead are scanned up to that distance
 //! along the line (no hull).
