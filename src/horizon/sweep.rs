@@ -14,10 +14,13 @@
 //! accurate to a few 1e-8 rad (the output is float32), taken in a separate
 //! pass over the slopes (rounded to float32 meanwhile: at most 3e-8 rad).
 //!
-//! The lines are walked a block of neighbours at a time, one step for the
-//! whole block before the next: the block's cells at one step are adjacent
-//! rows of a column (or adjacent cells of a row), so every cache line of the
-//! grid is loaded once instead of once per line.
+//! The lines are walked a block of neighbours at a time, a few steps of one
+//! line before the same steps of the next (16 when the lines run along the
+//! rows, so those steps are adjacent cells of a row; 4 when they run along
+//! the columns, where the block's cells at one step are adjacent cells of a
+//! row): every cache line of the grid is loaded once instead of once per
+//! line. The distances along the direction are tabulated per step, and the
+//! top of each line's hull stack stays in registers while the line is walked.
 //!
 //! With `max_distance`, the cells ahead are scanned up to that distance
 //! along the line (no hull).
@@ -88,19 +91,144 @@ pub fn atan_select(x: f64) -> f64 {
 }
 
 /// Replace slopes by their elevation angles (−∞ gives −π/2, NaN stays).
+/// The same operations in the same order whatever the vector width, so the
+/// result does not depend on the CPU.
 fn slopes_to_angles(out: &mut [f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX (checked just above).
+        unsafe { slopes_to_angles_avx(out) };
+        return;
+    }
+    slopes_to_angles_plain(out);
+}
+
+#[inline(always)]
+fn slopes_to_angles_plain(out: &mut [f32]) {
     for v in out.iter_mut() {
         *v = atan_select(*v as f64) as f32;
     }
 }
 
+/// [`slopes_to_angles_plain`] compiled for 4-wide f64 vectors (no FMA: the
+/// values are bit-identical to the plain pass).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn slopes_to_angles_avx(out: &mut [f32]) {
+    slopes_to_angles_plain(out);
+}
+
 /// Lines walked together (one cache line of output per step and line).
 const BLOCK: i64 = 64;
+
+/// Steps walked on one line before the next line of the block when the
+/// block's cells at one step are a column (lines along the rows): a line's
+/// next `CHUNK` cells are then adjacent in memory and every cache line of
+/// the grid is used up before it can be evicted; the stacks stay the same.
+const CHUNK: usize = 16;
+
+/// The same when the block's cells at one step are a run of a row (lines
+/// along the columns): a few steps per line amortise the per-line set-up
+/// while the rows touched stay few.
+const CHUNK_ROWS: usize = 4;
+
+/// A step of the lines of one direction (in walking order).
+#[derive(Clone, Copy)]
+struct Step {
+    /// Cell index of line 0 at this step (line l: q0 + l·sv).
+    q0: i64,
+    /// Perpendicular index of line 0 (line l: sh + l).
+    sh: i64,
+    /// Distance along r of line 0 (line l: w + l·wperp).
+    w: f64,
+}
+
+/// Walk line `l` over `steps`, with its hull stack of `k` vertices at
+/// `sw`, `sz` (distances and heights); returns the new stack length. `CURV`:
+/// whether c ≠ 0 (then `wl` = l·wperp is added to the distances). The top
+/// vertex is kept in registers: the stack in memory is only read below it,
+/// so no load waits on the store of the cell just before.
+///
+/// # Safety
+/// `z` and `out` hold the grid, whose cell at perpendicular index v of a step
+/// is `q0 + (v − sh)·sv` for 0 ≤ v < nperp; `sw` and `sz` have room for `k`
+/// plus one value per step.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+unsafe fn walk<const CURV: bool>(
+    z: &[f64],
+    out: &mut [f32],
+    steps: &[Step],
+    l: i64,
+    nperp: i64,
+    sv: usize,
+    c: f64,
+    wl: f64,
+    sw: *mut f64,
+    sz: *mut f64,
+    mut k: usize,
+) -> usize {
+    let off = l * sv as i64;
+    let (mut tw, mut tz) = if k > 0 {
+        (*sw.add(k - 1), *sz.add(k - 1))
+    } else {
+        (0.0, 0.0)
+    };
+    for s in steps {
+        // the line's cell at this step is on the grid when 0 ≤ l + sh < nperp
+        if ((l + s.sh) as u64) >= nperp as u64 {
+            continue;
+        }
+        let q = (s.q0 + off) as usize;
+        let h = *z.get_unchecked(q);
+        if !h.is_finite() {
+            // ±inf or NaN: no data
+            *out.get_unchecked_mut(q) = f32::NAN;
+            continue;
+        }
+        let (w, zz) = if CURV {
+            let w = s.w + wl;
+            (w, h - c * w * w) // Z = z − c·w²
+        } else {
+            (s.w, h)
+        };
+        // pop the top t while it is on or under the segment from the new
+        // point to the vertex p below it
+        while k >= 2 {
+            let (pw, pz) = (*sw.add(k - 2), *sz.add(k - 2));
+            if (pz - zz) * (tw - w) >= (tz - zz) * (pw - w) {
+                k -= 1;
+                (tw, tz) = (pw, pz);
+            } else {
+                break;
+            }
+        }
+        // The slope for now (rounded to f32: ≤ 3e-8 rad once turned into an
+        // angle); the angles are taken in one vector pass.
+        *out.get_unchecked_mut(q) = if k > 0 {
+            let slope = (tz - zz) / (tw - w);
+            (if CURV { slope + 2.0 * c * w } else { slope }) as f32
+        } else {
+            f32::NEG_INFINITY
+        };
+        *sw.add(k) = w;
+        *sz.add(k) = zz;
+        k += 1;
+        (tw, tz) = (w, zz);
+    }
+    k
+}
 
 /// One direction without a distance limit. The lines step along columns
 /// (`along_cols`, one cell per column, |m| ≤ 1 rows per column) or along
 /// rows; `fwd` says whether "ahead" is towards higher steps; `wstep`,
 /// `wperp` are the distances along r per step and per perpendicular index.
+///
+/// Line l holds, at step u, the cell at perpendicular index v = l + sh(u),
+/// so its distance along r is w = (u·wstep + sh(u)·wperp) + l·wperp: the
+/// first term is the same for every line of a direction and is tabulated
+/// once; the line's constant l·wperp is left out without curvature (the
+/// slopes only see differences of w along one line).
 #[allow(clippy::too_many_arguments)]
 fn lines_blocked(
     z: &[f64],
@@ -120,73 +248,76 @@ fn lines_blocked(
     } else {
         (rows, cols as i64)
     };
-    let shift: Vec<i64> = (0..nsteps).map(|u| (m * u as f64).round() as i64).collect();
+    // The steps in walking order (the far end first), with their shift and
+    // tabulated distance.
+    let order: Vec<usize> = if fwd {
+        (0..nsteps).rev().collect()
+    } else {
+        (0..nsteps).collect()
+    };
+    let shift: Vec<i64> = order
+        .iter()
+        .map(|&u| (m * u as f64).round() as i64)
+        .collect();
+    let wtab: Vec<f64> = order
+        .iter()
+        .zip(&shift)
+        .map(|(&u, &sh)| u as f64 * wstep + sh as f64 * wperp)
+        .collect();
     let smin = *shift.iter().min().unwrap_or(&0);
     let smax = *shift.iter().max().unwrap_or(&0);
     let (sv, su) = if along_cols { (cols, 1) } else { (1, cols) };
-    // The hull stacks of the block's lines, flat: line b's stack lives in
-    // hw/hz[b·cap .. b·cap + len[b]] (a line has at most `nsteps` cells).
-    let cap = nsteps;
-    let mut hw = vec![0.0f64; cap * BLOCK as usize];
-    let mut hz = vec![0.0f64; cap * BLOCK as usize];
+    // per step: the cell index of line 0 (i64: it may lie off the grid), the
+    // shift and the distance
+    let steps: Vec<Step> = order
+        .iter()
+        .zip(&shift)
+        .zip(&wtab)
+        .map(|((&u, &sh), &w)| Step {
+            q0: (u * su) as i64 + sh * sv as i64,
+            sh,
+            w,
+        })
+        .collect();
+    let chunk = if along_cols { CHUNK } else { CHUNK_ROWS };
+    assert!(z.len() >= rows * cols && out.len() >= rows * cols);
+    // The hull stacks of the block's lines, flat: line b's distances are
+    // st[2b·cap ..][.. len[b]] and its heights st[(2b + 1)·cap ..][.. len[b]]
+    // (a line has at most `nsteps` cells; the spare values stagger the
+    // stacks over the cache sets).
+    let cap = nsteps + 3;
+    let mut st = vec![0.0f64; 2 * cap * BLOCK as usize];
     let mut len = [0usize; BLOCK as usize];
     let mut l0 = -smax;
     while l0 < nperp - smin {
         cancel.check()?;
         let l1 = (l0 + BLOCK).min(nperp - smin);
         len.fill(0);
-        for step in 0..nsteps {
-            let u = if fwd { nsteps - 1 - step } else { step };
-            let sh = shift[u];
-            // line l holds perpendicular index v = l + sh, 0 ≤ v < nperp
-            let (la, lb) = (l0.max(-sh), l1.min(nperp - sh));
-            if la >= lb {
-                continue;
-            }
-            let wu = u as f64 * wstep;
-            let base = u * su;
-            assert!(la >= l0 && lb <= l0 + BLOCK && la + sh >= 0 && lb + sh <= nperp);
-            assert!(base + (nperp as usize - 1) * sv < out.len().min(z.len()));
+        let mut s0 = 0;
+        while s0 < nsteps {
+            let s1 = (s0 + chunk).min(nsteps);
+            // lines of the block that have a cell at some step of the chunk
+            let (cmin, cmax) = shift[s0..s1]
+                .iter()
+                .fold((i64::MAX, i64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+            let (la, lb) = (l0.max(-cmax), l1.min(nperp - cmin));
             for l in la..lb {
                 let b = (l - l0) as usize;
-                let v = (l + sh) as usize;
-                let q = base + v * sv;
-                // SAFETY: 0 ≤ v < nperp and u < nsteps (asserted above), so q
-                // is a cell of the grid; b < BLOCK; a line has at most one
-                // cell per step, so its stack never exceeds cap = nsteps.
+                let (sw, sz) = st[2 * b * cap..(2 * b + 2) * cap].split_at_mut(cap);
+                let (sw, sz) = (sw.as_mut_ptr(), sz.as_mut_ptr());
+                // SAFETY: b < BLOCK since l0 ≤ la ≤ l < lb ≤ l1 ≤ l0 + BLOCK;
+                // the chunk is a range of `steps`; see `walk` for the cells.
                 unsafe {
-                    let h = *z.get_unchecked(q);
-                    if !h.is_finite() {
-                        *out.get_unchecked_mut(q) = f32::NAN;
-                        continue;
-                    }
-                    let w = wu + v as f64 * wperp;
-                    let zz = if c == 0.0 { h } else { h - c * w * w };
-                    let sw_ = hw.as_mut_ptr().add(b * cap);
-                    let sz_ = hz.as_mut_ptr().add(b * cap);
-                    let mut k = *len.get_unchecked(b);
-                    while k >= 2 {
-                        let (tw, tz) = (*sw_.add(k - 1), *sz_.add(k - 1));
-                        let (sw, sz) = (*sw_.add(k - 2), *sz_.add(k - 2));
-                        if (sz - zz) * (tw - w) >= (tz - zz) * (sw - w) {
-                            k -= 1;
-                        } else {
-                            break;
-                        }
-                    }
-                    // The slope for now (rounded to f32: ≤ 3e-8 rad once
-                    // turned into an angle); the angles are taken in one
-                    // vector pass.
-                    *out.get_unchecked_mut(q) = if k > 0 {
-                        ((*sz_.add(k - 1) - zz) / (*sw_.add(k - 1) - w) + 2.0 * c * w) as f32
+                    let k = len.get_unchecked_mut(b);
+                    *k = if c == 0.0 {
+                        walk::<false>(z, out, &steps[s0..s1], l, nperp, sv, 0.0, 0.0, sw, sz, *k)
                     } else {
-                        f32::NEG_INFINITY
+                        let wl = l as f64 * wperp;
+                        walk::<true>(z, out, &steps[s0..s1], l, nperp, sv, c, wl, sw, sz, *k)
                     };
-                    *sw_.add(k) = w;
-                    *sz_.add(k) = zz;
-                    *len.get_unchecked_mut(b) = k + 1;
                 }
             }
+            s0 = s1;
         }
         l0 = l1;
     }
