@@ -196,7 +196,10 @@ pub fn render(
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
             xscan.cancel = Some(cancel);
-            xscan.first_order = !sampled;
+            // Pixel solves to first order in both scans: the sampled scan
+            // completes a solution to second order only where it starts
+            // a span from it (dϑ/dx needs ∇J and ∇K).
+            xscan.first_order = true;
             if let XScanMode::Sampled {
                 per_turn,
                 max_error,

@@ -139,8 +139,9 @@ pub struct XScan<'a> {
     /// the cross-section angle, and the normal-angle trackers of the band.
     pub zs: f64,
     pub pool: std::cell::RefCell<super::xscan_sampled::Pool>,
-    /// Evaluate pixel solves to first order only (the exact scan: nothing
-    /// downstream of them reads second derivatives).
+    /// Evaluate pixel solves to first order only (nothing downstream of
+    /// them reads second derivatives, except the span starts of the
+    /// sampled scan, which complete their sample).
     pub first_order: bool,
     /// Solve runs of pixels together, one evaluation batch per Newton round
     /// (surfaces whose single-point evaluation is dear: Python callables).

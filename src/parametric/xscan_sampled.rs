@@ -912,6 +912,14 @@ impl<'a> XScan<'a> {
             if n % 16 == 0 && self.cancel.is_some_and(|c| c.is_cancelled()) {
                 return End::Failed;
             }
+            // Pixel solves are first order; dϑ/dx at a span's start needs
+            // the second derivatives (the same values a second-order solve
+            // would have given: the first-order fields agree bit for bit).
+            if a.s.xuu.is_nan() {
+                if let Some(f) = self.sc.eval(a.s.u, a.s.v) {
+                    a.s = f;
+                }
+            }
             dir = if a.kind == SKind::Turn {
                 -dir
             } else {
