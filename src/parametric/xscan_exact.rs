@@ -81,6 +81,9 @@ pub struct XStats {
     /// sideways iteration.
     pub wrong_arc: u64,
     pub sideways: u64,
+    /// Sampled X scan: first pixels of pieces solved from the second-order
+    /// start at their fold (no continuation walk).
+    pub fold_starts: u64,
 }
 
 impl XStats {
@@ -108,6 +111,7 @@ impl XStats {
         self.links_kept += o.links_kept;
         self.wrong_arc += o.wrong_arc;
         self.sideways += o.sideways;
+        self.fold_starts += o.fold_starts;
     }
 }
 
