@@ -954,7 +954,7 @@ impl<'a> XScan<'a> {
         let dx = xp - q.x;
         // ½ x_tt σ² + x_t σ − dx = 0, the positive root (stable form).
         let disc = xt * xt + 2.0 * xtt * dx;
-        if !(disc >= 0.0) {
+        if disc.is_nan() || disc < 0.0 {
             return None;
         }
         let step = 2.0 * dx / (xt + disc.sqrt());
