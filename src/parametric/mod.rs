@@ -166,12 +166,28 @@ pub fn render(
     shading.validate()?;
     let cam = Camera::new(view, width, height)?;
     let sc = Screen::new(surf, &cam);
-    let maxima = maxima::find_maxima(&sc, opts.grid.min(129));
     let x_left = -0.5 * width as f64;
-    let net = trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left);
-    let saddles = maxima::find_saddles(&sc, opts.grid.min(129));
-    let folds = folds::find_folds(&sc, opts.grid.min(129));
-    let seams = trackers::seams(&sc);
+    // The pre-scans are independent: run them side by side.
+    let g = opts.grid.min(129);
+    let ((maxima, net), ((saddles, folds), seams)) = rayon::join(
+        || {
+            rayon::join(
+                || maxima::find_maxima(&sc, g),
+                || trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left),
+            )
+        },
+        || {
+            rayon::join(
+                || {
+                    rayon::join(
+                        || maxima::find_saddles(&sc, g),
+                        || folds::find_folds(&sc, g),
+                    )
+                },
+                || trackers::seams(&sc),
+            )
+        },
+    );
     // Depth unit of the sampled scan's cross-section angle: one pixel at
     // the view distance.
     let zs = match view.projection {
@@ -196,7 +212,10 @@ pub fn render(
             let mut xscan = XScan::new(&sc, width);
             xscan.saddles = saddles.clone();
             xscan.cancel = Some(cancel);
-            xscan.first_order = !sampled;
+            // Pixel solves to first order in both scans: the sampled scan
+            // completes a solution to second order only where it starts
+            // a span from it (dϑ/dx needs ∇J and ∇K).
+            xscan.first_order = true;
             if let XScanMode::Sampled {
                 per_turn,
                 max_error,
@@ -211,7 +230,7 @@ pub fn render(
             let mut st = BandStats::default();
             let mut trackers: Vec<Tracker> = Vec::new();
             let mut seeds = Vec::new();
-            let mut pix: Vec<(usize, Pixel)> = Vec::new();
+            let mut pix: Vec<(usize, Pixel)> = Vec::with_capacity((r1 - r0) * width);
             let mut hits: Vec<Option<Hit>> = vec![None; width];
             for i in r0..r1 {
                 cancel.check()?;
@@ -303,6 +322,7 @@ pub fn render(
         b.stat("x_links_kept", s.links_kept as f64);
         b.stat("x_wrong_arc", s.wrong_arc as f64);
         b.stat("x_sideways", s.sideways as f64);
+        b.stat("x_fold_starts", s.fold_starts as f64);
         // Normal-angle trackers (§4): Newton corrections per update from
         // the previous position (plain) and from the §3.5 extrapolation.
         b.stat(

@@ -180,15 +180,16 @@ impl<'a> Screen<'a> {
             if cz[0] <= cam.near {
                 return None;
             }
-            // q = F a / c: q_i = F (a_i − (a/c) c_i) / c.
+            // q = F a / c: q_i = F (a_i − (a/c) c_i) / c, rounded as in
+            // `quotient` so that both orders agree bit for bit.
             let f = cam.focal;
             let ic = 1.0 / cz[0];
             let q = |a: [f64; 3]| {
                 let r = a[0] * ic;
                 [
                     f * r,
-                    f * (a[1] - r * cz[1]) * ic,
-                    f * (a[2] - r * cz[2]) * ic,
+                    f * ((a[1] - r * cz[1]) * ic),
+                    f * ((a[2] - r * cz[2]) * ic),
                 ]
             };
             (q(cx), q(cy))
@@ -332,6 +333,22 @@ mod tests {
             for (a, b) in [(f.yu, s.yu), (f.yv, s.yv), (f.zu, s.zu), (f.zv, s.zv)] {
                 assert!(rel(a, b) < 1e-12, "{a} {b}");
             }
+            // Bit for bit: the sampled scan completes first-order pixel
+            // solves to second order and relies on the two agreeing.
+            for (a, b) in [
+                (f.x, s.x),
+                (f.y, s.y),
+                (f.z, s.z),
+                (f.xu, s.xu),
+                (f.xv, s.xv),
+                (f.yu, s.yu),
+                (f.yv, s.yv),
+                (f.zu, s.zu),
+                (f.zv, s.zv),
+            ] {
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
+            assert!(f.p.pu == s.p.pu && f.p.pv == s.p.pv && f.p.p == s.p.p);
             assert!(f.xuu.is_nan() && f.yvv.is_nan());
             // Screen position agrees with the camera's projection.
             let q = cam.to_screen(s.p.p);

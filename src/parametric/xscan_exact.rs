@@ -81,6 +81,9 @@ pub struct XStats {
     /// sideways iteration.
     pub wrong_arc: u64,
     pub sideways: u64,
+    /// Sampled X scan: first pixels of pieces solved from the second-order
+    /// start at their fold (no continuation walk).
+    pub fold_starts: u64,
 }
 
 impl XStats {
@@ -108,6 +111,7 @@ impl XStats {
         self.links_kept += o.links_kept;
         self.wrong_arc += o.wrong_arc;
         self.sideways += o.sideways;
+        self.fold_starts += o.fold_starts;
     }
 }
 
@@ -139,8 +143,9 @@ pub struct XScan<'a> {
     /// the cross-section angle, and the normal-angle trackers of the band.
     pub zs: f64,
     pub pool: std::cell::RefCell<super::xscan_sampled::Pool>,
-    /// Evaluate pixel solves to first order only (the exact scan: nothing
-    /// downstream of them reads second derivatives).
+    /// Evaluate pixel solves to first order only (nothing downstream of
+    /// them reads second derivatives, except the span starts of the
+    /// sampled scan, which complete their sample).
     pub first_order: bool,
     /// Solve runs of pixels together, one evaluation batch per Newton round
     /// (surfaces whose single-point evaluation is dear: Python callables).

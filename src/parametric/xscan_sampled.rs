@@ -123,7 +123,19 @@ pub struct Pool {
 /// Angle difference wrapped to (−π/2, π/2] (ϑ is a line direction).
 #[inline]
 fn wrap(x: f64) -> f64 {
-    let w = x - PI * (x / PI).round();
+    // round(x/π) without the library call for the usual |x| < 1.5π (the
+    // same value: halves round away from zero).
+    let r = x / PI;
+    let k = if r.abs() >= 1.5 {
+        r.round()
+    } else if r >= 0.5 {
+        1.0
+    } else if r <= -0.5 {
+        -1.0
+    } else {
+        0.0
+    };
+    let w = x - PI * k;
     if w <= -FRAC_PI_2 {
         w + PI
     } else {
@@ -530,7 +542,7 @@ impl<'a> XScan<'a> {
         let xm = 0.5 * (a.s.x + b.s.x);
         st.sample_solves += 1;
         // A thousandth of a pixel is plenty for a test point.
-        let Some(m) = self.try_newton_tol(&a.s, sigma, ys, xm, 1e-3, st) else {
+        let Some(m) = self.mid_solve(a, b, sigma, ys, xm, st) else {
             return Test::WrongArc;
         };
         let l = (b.s.u - a.s.u).abs().max((b.s.v - a.s.v).abs());
@@ -557,6 +569,39 @@ impl<'a> XScan<'a> {
         } else {
             Test::Coarse(m)
         }
+    }
+
+    /// The middle point of the span a → b on a's arc (x = xm): Newton
+    /// from the cubic Hermite interpolant in x of (u, v) between a and b,
+    /// with d(u, v)/dx = (y_v, −y_u)/J along the level curve — one or two
+    /// corrections where the linear step from a needs several. The checks
+    /// are those of `try_newton_tol` from a.
+    fn mid_solve(
+        &self,
+        a: &Sample,
+        b: &Sample,
+        sigma: f64,
+        ys: f64,
+        xm: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
+        let (ja, jb) = (a.s.jac(), b.s.jac());
+        let jscale = |s: &ScreenSample| (s.xu * s.yv).abs() + (s.xv * s.yu).abs();
+        if !(ja * sigma > 1e-3 * jscale(&a.s) && jb * sigma > 1e-3 * jscale(&b.s)) {
+            return self.try_newton_tol(&a.s, sigma, ys, xm, 1e-3, st);
+        }
+        let dx = b.s.x - a.s.x;
+        let h = 0.125 * dx;
+        let su = 0.5 * (a.s.u + b.s.u) + h * (a.s.yv / ja - b.s.yv / jb);
+        let sv = 0.5 * (a.s.v + b.s.v) - h * (a.s.yu / ja - b.s.yu / jb);
+        // The linear step from a (for the on-piece checks).
+        let (g, f) = (xm - a.s.x, ys - a.s.y);
+        let pu = (g * a.s.yv - a.s.xv * f) / ja;
+        let pv = (a.s.xu * f - a.s.yu * g) / ja;
+        let q = self.newton_tol(su, sv, ys, xm, 1e-3, &mut st.pixel_iters)?;
+        let jump = (q.u - a.s.u).abs().max((q.v - a.s.v).abs());
+        let pred = pu.abs().max(pv.abs());
+        (q.jac() * sigma > 0.0 && jump <= 3.0 * pred + 1e-12 * self.ext).then_some(q)
     }
 
     /// dz/dx along the level curve (K/J), if finite.
@@ -878,6 +923,61 @@ impl<'a> XScan<'a> {
         n
     }
 
+    /// First pixel xp of a piece that starts at a fold (J ≈ 0 at q, where
+    /// the linear step of `try_newton` is undefined): along the unit
+    /// tangent t of the level curve, x(σ) ≈ x_q + x_t σ + ½ x_tt σ² with
+    /// the curve's second-order term c'' = −(tᵀH_y t) ∇y/|∇y|² (as for the
+    /// left-border starts of the Y scan), so Newton starts σ along the
+    /// curve, σ the positive root. `None` (the continuation walks there
+    /// instead) unless it lands ahead of q on the piece, within three
+    /// times the predicted step.
+    fn fold_start(
+        &self,
+        q: &ScreenSample,
+        s: f64,
+        sigma: f64,
+        ys: f64,
+        xp: f64,
+        st: &mut XStats,
+    ) -> Option<ScreenSample> {
+        let g2 = q.yu * q.yu + q.yv * q.yv;
+        let l = g2.sqrt();
+        if !(l > 0.0 && q.xuu.is_finite() && xp > q.x) {
+            return None;
+        }
+        let (tu, tv) = (-s * q.yv / l, s * q.yu / l);
+        let quad = |a: f64, b: f64, c: f64| a * tu * tu + 2.0 * b * tu * tv + c * tv * tv;
+        let ky = -quad(q.yuu, q.yuv, q.yvv) / g2;
+        let (cu, cv) = (ky * q.yu, ky * q.yv);
+        let xt = q.xu * tu + q.xv * tv;
+        let xtt = quad(q.xuu, q.xuv, q.xvv) + q.xu * cu + q.xv * cv;
+        let dx = xp - q.x;
+        // ½ x_tt σ² + x_t σ − dx = 0, the positive root (stable form).
+        let disc = xt * xt + 2.0 * xtt * dx;
+        if disc.is_nan() || disc < 0.0 {
+            return None;
+        }
+        let step = 2.0 * dx / (xt + disc.sqrt());
+        if !(step.is_finite() && step > 0.0) {
+            return None;
+        }
+        let (du, dv) = (
+            step * tu + 0.5 * step * step * cu,
+            step * tv + 0.5 * step * step * cv,
+        );
+        if du.abs().max(dv.abs()) > 0.1 * self.ext {
+            return None;
+        }
+        let n = self.newton(q.u + du, q.v + dv, ys, xp, &mut st.pixel_iters)?;
+        let (mu, mv) = (n.u - q.u, n.v - q.v);
+        let ahead = mu * tu + mv * tv > 0.0;
+        let near = mu.abs().max(mv.abs()) <= 3.0 * du.abs().max(dv.abs()) + 1e-12 * self.ext;
+        (ahead && near && n.jac() * sigma > 0.0).then(|| {
+            st.fold_starts += 1;
+            n
+        })
+    }
+
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn sampled_from(
         &self,
@@ -892,7 +992,10 @@ impl<'a> XScan<'a> {
         let sigma = -s;
         // The first pixel exactly (it may need the continuation).
         let xp0 = self.xpix(j0);
-        let first = match self.try_newton(&start, sigma, ys, xp0, st) {
+        let first = match self
+            .try_newton(&start, sigma, ys, xp0, st)
+            .or_else(|| self.fold_start(&start, s, sigma, ys, xp0, st))
+        {
             Some(q) => q,
             None => match self.continuation(&start, s, sigma, ys, xp0, st) {
                 Ok(q) => q,
@@ -911,6 +1014,14 @@ impl<'a> XScan<'a> {
             n += 1;
             if n % 16 == 0 && self.cancel.is_some_and(|c| c.is_cancelled()) {
                 return End::Failed;
+            }
+            // Pixel solves are first order; dϑ/dx at a span's start needs
+            // the second derivatives (the same values a second-order solve
+            // would have given: the first-order fields agree bit for bit).
+            if a.s.xuu.is_nan() {
+                if let Some(f) = self.sc.eval(a.s.u, a.s.v) {
+                    a.s = f;
+                }
             }
             dir = if a.kind == SKind::Turn {
                 -dir
@@ -1000,5 +1111,14 @@ mod tests {
         assert!((wrap(PI) - 0.0).abs() < 1e-15);
         assert!((wrap(-FRAC_PI_2) - FRAC_PI_2).abs() < 1e-15);
         assert!((wrap(0.75 * PI) + 0.25 * PI).abs() < 1e-15);
+        // The same bits as with the library rounding, across the range.
+        for i in -4000..=4000 {
+            let x = i as f64 * 1e-3 * PI + 1e-7;
+            for x in [x, 0.5 * PI, -0.5 * PI, 1.5 * PI, -1.5 * PI] {
+                let w = x - PI * (x / PI).round();
+                let w = if w <= -FRAC_PI_2 { w + PI } else { w };
+                assert_eq!(wrap(x).to_bits(), w.to_bits(), "{x}");
+            }
+        }
     }
 }
