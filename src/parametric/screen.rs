@@ -238,13 +238,12 @@ impl<'a> Screen<'a> {
 
     /// [`eval_first`](Self::eval_first) at many points in one batch.
     pub fn eval_first_batch(&self, u: &[f64], v: &[f64]) -> Vec<Option<ScreenSample>> {
-        self.evals.fetch_add(u.len() as u64, Ordering::Relaxed);
-        let mut out = vec![ParamSample::default(); u.len()];
-        self.surf.eval_first_batch(u, v, &mut out);
-        out.into_iter()
-            .zip(u.iter().zip(v))
-            .map(|(p, (&u, &v))| self.from_sample_first(u, v, p))
-            .collect()
+        self.batch(
+            u,
+            v,
+            |u, v, out| self.surf.eval_first_batch(u, v, out),
+            Self::from_sample_first,
+        )
     }
 
     /// Evaluate at one point (counted).
@@ -257,12 +256,29 @@ impl<'a> Screen<'a> {
 
     /// Evaluate at many points in one batch (counted).
     pub fn eval_batch(&self, u: &[f64], v: &[f64]) -> Vec<Option<ScreenSample>> {
+        self.batch(
+            u,
+            v,
+            |u, v, out| self.surf.eval_batch(u, v, out),
+            Self::from_sample,
+        )
+    }
+
+    /// One counted batch: `fill` evaluates the surface, `finish` takes each
+    /// point to the screen.
+    fn batch(
+        &self,
+        u: &[f64],
+        v: &[f64],
+        fill: impl FnOnce(&[f64], &[f64], &mut [ParamSample]),
+        finish: impl Fn(&Self, f64, f64, ParamSample) -> Option<ScreenSample>,
+    ) -> Vec<Option<ScreenSample>> {
         self.evals.fetch_add(u.len() as u64, Ordering::Relaxed);
         let mut out = vec![ParamSample::default(); u.len()];
-        self.surf.eval_batch(u, v, &mut out);
+        fill(u, v, &mut out);
         out.into_iter()
             .zip(u.iter().zip(v))
-            .map(|(p, (&u, &v))| self.from_sample(u, v, p))
+            .map(|(p, (&u, &v))| finish(self, u, v, p))
             .collect()
     }
 

@@ -808,6 +808,24 @@ impl<'a> YScan<'a> {
             if !(0.0..8.0).contains(&dy) {
                 continue;
             }
+            // A silhouette tracker between the maximum and (u, v), from
+            // either end of the segment, unless one is there already.
+            let sil_between = |out: &mut Vec<Tracker>, st: &mut YStats, (u, v): (f64, f64)| {
+                let mid = (0.5 * (u + m.u), 0.5 * (v + m.v));
+                let fs = self
+                    .solve(Kind::Sil, u, v, ys)
+                    .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
+                if let Some((fs, _, _)) = fs {
+                    if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                        st.created_fold += 1;
+                        out.push(Tracker {
+                            kind: Kind::Sil,
+                            s: fs,
+                            prev: None,
+                        });
+                    }
+                }
+            };
             let mut cands: Vec<(Kind, f64, f64)> = Vec::new();
             match m.kind {
                 MaxKind::Interior => sil_starts(&m.s, ys, &mut cands),
@@ -858,20 +876,7 @@ impl<'a> YScan<'a> {
                         // sign between the maximum and its boundary
                         // tracker (§3.2.2.3 at creation).
                         if matches!(kind, Kind::Edge(_)) && (s.jac() < 0.0) != (m.s.jac() < 0.0) {
-                            let mid = (0.5 * (s.u + m.u), 0.5 * (s.v + m.v));
-                            let fs = self
-                                .solve(Kind::Sil, s.u, s.v, ys)
-                                .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
-                            if let Some((fs, _, _)) = fs {
-                                if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
-                                    st.created_fold += 1;
-                                    out.push(Tracker {
-                                        kind: Kind::Sil,
-                                        s: fs,
-                                        prev: None,
-                                    });
-                                }
-                            }
+                            sil_between(&mut out, st, (s.u, s.v));
                         }
                     }
                 }
@@ -879,21 +884,7 @@ impl<'a> YScan<'a> {
             // A corner piece with one boundary end only: its other end is
             // a silhouette point (y along the second edge turned up again).
             if let (MaxKind::Corner(..), 1, [(u, v)]) = (m.kind, made, missed.as_slice()) {
-                let (u, v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
-                let mid = (0.5 * (u + m.u), 0.5 * (v + m.v));
-                let fs = self
-                    .solve(Kind::Sil, u, v, ys)
-                    .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
-                if let Some((fs, _, _)) = fs {
-                    if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
-                        st.created_fold += 1;
-                        out.push(Tracker {
-                            kind: Kind::Sil,
-                            s: fs,
-                            prev: None,
-                        });
-                    }
-                }
+                sil_between(&mut out, st, (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1)));
             }
         }
         // §3.2.2.4 saddles: every stationary point of y lies on the
