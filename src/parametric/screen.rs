@@ -282,6 +282,42 @@ impl<'a> Screen<'a> {
             .collect()
     }
 
+    /// Newton iterations of many points in lockstep: each round evaluates
+    /// every unfinished point in one batch (one call per round for a
+    /// Python-callable surface), then `step(round, sample, u, v, state)`
+    /// gives the point's next (u, v, state), or `None` when it is done or
+    /// has failed. Points whose evaluation fails are dropped.
+    pub fn lockstep<T: Copy>(
+        &self,
+        mut active: Vec<(f64, f64, T)>,
+        rounds: u32,
+        first_order: bool,
+        mut step: impl FnMut(u32, &ScreenSample, f64, f64, T) -> Option<(f64, f64, T)>,
+    ) {
+        let (mut bu, mut bv) = (Vec::new(), Vec::new());
+        for round in 0..rounds {
+            if active.is_empty() {
+                break;
+            }
+            bu.clear();
+            bv.clear();
+            bu.extend(active.iter().map(|a| a.0));
+            bv.extend(active.iter().map(|a| a.1));
+            let ss = if first_order {
+                self.eval_first_batch(&bu, &bv)
+            } else {
+                self.eval_batch(&bu, &bv)
+            };
+            let mut next = Vec::with_capacity(active.len());
+            for (&(u, v, t), s) in active.iter().zip(ss) {
+                if let Some(n) = s.and_then(|s| step(round, &s, u, v, t)) {
+                    next.push(n);
+                }
+            }
+            active = next;
+        }
+    }
+
     /// Unit direction from a world point towards the viewer.
     #[inline]
     pub fn to_eye(&self, p: DVec3) -> DVec3 {

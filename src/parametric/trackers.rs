@@ -506,35 +506,25 @@ impl<'a> YScan<'a> {
         ys: f64,
     ) -> Vec<Option<(ScreenSample, u32, u32)>> {
         let mut out = vec![None; items.len()];
-        let mut active: Vec<(usize, f64, f64, u32)> = items
+        let active = items
             .iter()
             .enumerate()
             .map(|(i, &(k, u, v))| {
                 let (u, v) = self.start(k, u, v);
-                (i, u, v, 0)
+                (u, v, (i, 0u32))
             })
             .collect();
-        let (mut bu, mut bv) = (Vec::new(), Vec::new());
-        for iters in 0..30u32 {
-            if active.is_empty() {
-                break;
-            }
-            bu.clear();
-            bv.clear();
-            bu.extend(active.iter().map(|a| a.1));
-            bv.extend(active.iter().map(|a| a.2));
-            let ss = self.sc.eval_batch(&bu, &bv);
-            let mut next = Vec::with_capacity(active.len());
-            for (&(i, u, v, big), s) in active.iter().zip(ss) {
-                let Some(s) = s else { continue };
-                match self.solve_step(items[i].0, &s, ys, u, v) {
-                    SolveStep::Done => out[i] = Some((s, iters, big)),
-                    SolveStep::Fail => {}
-                    SolveStep::Next(nu, nv, b) => next.push((i, nu, nv, big + b as u32)),
+        self.sc
+            .lockstep(active, 30, false, |iters, s, u, v, (i, big)| {
+                match self.solve_step(items[i].0, s, ys, u, v) {
+                    SolveStep::Done => {
+                        out[i] = Some((*s, iters, big));
+                        None
+                    }
+                    SolveStep::Fail => None,
+                    SolveStep::Next(nu, nv, b) => Some((nu, nv, (i, big + b as u32))),
                 }
-            }
-            active = next;
-        }
+            });
         out
     }
 
@@ -694,6 +684,19 @@ impl<'a> YScan<'a> {
         let same = |a: &Tracker, kind: Kind, s: &ScreenSample| {
             a.kind == kind && (a.s.u - s.u).abs() <= tol && (a.s.v - s.v).abs() <= tol
         };
+        // A new tracker, unless one of its kind is already there: whether it
+        // was added.
+        let add = |out: &mut Vec<Tracker>, kind: Kind, s: ScreenSample| {
+            let new = !out.iter().any(|o| same(o, kind, &s));
+            if new {
+                out.push(Tracker {
+                    kind,
+                    s,
+                    prev: None,
+                });
+            }
+            new
+        };
         // §3.2.1 update with the §3.5 extrapolation, all trackers in one
         // batch per Newton round.
         let guess = |t: &Tracker| match (self.extrapolate, t.prev) {
@@ -726,13 +729,8 @@ impl<'a> YScan<'a> {
                     if let Kind::Edge(_) = t.kind {
                         if (s.jac() < 0.0) != (t.s.jac() < 0.0) {
                             if let Some((fs, _, _)) = self.solve(Kind::Sil, s.u, s.v, ys) {
-                                if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                                if add(&mut out, Kind::Sil, fs) {
                                     st.created_fold += 1;
-                                    out.push(Tracker {
-                                        kind: Kind::Sil,
-                                        s: fs,
-                                        prev: None,
-                                    });
                                 }
                             }
                         }
@@ -748,13 +746,8 @@ impl<'a> YScan<'a> {
                         };
                         for (u, v) in starts {
                             if let Some((ls, _, _)) = self.solve(Kind::Left, u, v, ys) {
-                                if !out.iter().any(|o| same(o, Kind::Left, &ls)) {
+                                if add(&mut out, Kind::Left, ls) {
                                     st.created_left += 1;
-                                    out.push(Tracker {
-                                        kind: Kind::Left,
-                                        s: ls,
-                                        prev: None,
-                                    });
                                 }
                             }
                         }
@@ -788,13 +781,8 @@ impl<'a> YScan<'a> {
                     }
                     if twin != (gu, gv) && d.contains(twin.0, twin.1) {
                         if let Some((s, _, _)) = self.solve(Kind::Sil, twin.0, twin.1, ys) {
-                            if !out.iter().any(|o| same(o, Kind::Sil, &s)) {
+                            if add(&mut out, Kind::Sil, s) {
                                 st.created_seam += 1;
-                                out.push(Tracker {
-                                    kind: Kind::Sil,
-                                    s,
-                                    prev: None,
-                                });
                             }
                         }
                     }
@@ -816,13 +804,8 @@ impl<'a> YScan<'a> {
                     .solve(Kind::Sil, u, v, ys)
                     .or_else(|| self.solve(Kind::Sil, mid.0, mid.1, ys));
                 if let Some((fs, _, _)) = fs {
-                    if !out.iter().any(|o| same(o, Kind::Sil, &fs)) {
+                    if add(out, Kind::Sil, fs) {
                         st.created_fold += 1;
-                        out.push(Tracker {
-                            kind: Kind::Sil,
-                            s: fs,
-                            prev: None,
-                        });
                     }
                 }
             };
@@ -865,13 +848,8 @@ impl<'a> YScan<'a> {
                 }
                 if let Some((s, _, _)) = r {
                     made += 1;
-                    if !out.iter().any(|o| same(o, kind, &s)) {
+                    if add(&mut out, kind, s) {
                         st.created_maxima += 1;
-                        out.push(Tracker {
-                            kind,
-                            s,
-                            prev: None,
-                        });
                         // A silhouette inside the new piece: J changed
                         // sign between the maximum and its boundary
                         // tracker (§3.2.2.3 at creation).
@@ -902,13 +880,8 @@ impl<'a> YScan<'a> {
             sil_starts(q, ys, &mut cands);
             for (kind, u, v) in cands {
                 if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
-                    if !out.iter().any(|o| same(o, kind, &s)) {
+                    if add(&mut out, kind, s) {
                         st.created_saddles += 1;
-                        out.push(Tracker {
-                            kind,
-                            s,
-                            prev: None,
-                        });
                     }
                 }
             }
@@ -922,13 +895,8 @@ impl<'a> YScan<'a> {
             }
             for (u, v) in f.starts(ys) {
                 if let Some((s, _, _)) = self.solve(Kind::Sil, u, v, ys) {
-                    if !out.iter().any(|o| same(o, Kind::Sil, &s)) {
+                    if add(&mut out, Kind::Sil, s) {
                         st.created_curtain += 1;
-                        out.push(Tracker {
-                            kind: Kind::Sil,
-                            s,
-                            prev: None,
-                        });
                     }
                 }
             }
@@ -940,17 +908,12 @@ impl<'a> YScan<'a> {
         }
         for &(kind, u, v) in seeds.iter() {
             if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
-                if !out.iter().any(|o| same(o, kind, &s)) {
+                if add(&mut out, kind, s) {
                     if first {
                         st.band_seeds += 1;
                     } else {
                         st.net_added += 1;
                     }
-                    out.push(Tracker {
-                        kind,
-                        s,
-                        prev: None,
-                    });
                 }
             }
         }

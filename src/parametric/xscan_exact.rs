@@ -263,53 +263,34 @@ impl<'a> XScan<'a> {
     ) -> Vec<Option<ScreenSample>> {
         let d = self.sc.dom;
         let mut out = vec![None; starts.len()];
-        let mut active: Vec<(usize, f64, f64)> = starts
+        let active = starts
             .iter()
             .enumerate()
-            .map(|(i, &(u, v, _))| (i, u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1)))
+            .map(|(i, &(u, v, _))| (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1), i))
             .collect();
-        let (mut bu, mut bv) = (Vec::new(), Vec::new());
-        for _ in 0..12 {
-            if active.is_empty() {
-                break;
-            }
-            bu.clear();
-            bv.clear();
-            bu.extend(active.iter().map(|a| a.1));
-            bv.extend(active.iter().map(|a| a.2));
-            let ss = if self.first_order {
-                self.sc.eval_first_batch(&bu, &bv)
-            } else {
-                self.sc.eval_batch(&bu, &bv)
-            };
-            let mut next = Vec::with_capacity(active.len());
-            for (&(i, u, v), s) in active.iter().zip(ss) {
-                let Some(s) = s else { continue };
+        self.sc
+            .lockstep(active, 12, self.first_order, |_, s, u, v, i| {
                 let xp = starts[i].2;
                 let (f, g, det) = (s.y - ys, s.x - xp, s.jac());
                 let du = -(g * s.yv - s.xv * f) / det;
                 let dv = -(s.xu * f - s.yu * g) / det;
                 if !(du.is_finite() && dv.is_finite()) {
-                    continue;
+                    return None;
                 }
                 if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
                     let ok = tol.max(1e-6);
                     if f.abs() < ok && g.abs() < ok {
-                        out[i] = Some(s);
+                        out[i] = Some(*s);
                     }
-                    continue;
+                    return None;
                 }
                 if du.abs().max(dv.abs()) > 0.25 * self.ext {
-                    continue;
+                    return None;
                 }
                 *iters += 1;
                 let (nu, nv) = ((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1));
-                if (nu, nv) != (u, v) {
-                    next.push((i, nu, nv));
-                }
-            }
-            active = next;
-        }
+                ((nu, nv) != (u, v)).then_some((nu, nv, i))
+            });
         out
     }
 
