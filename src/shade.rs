@@ -90,11 +90,15 @@ impl Shading {
         i
     }
 
-    /// Colour of an intensity on a side (+1 upper, −1 under).
+    /// Colour of an intensity on a side (+1 upper, −1 under), each channel
+    /// rounded to the nearest level without a call to `round`: for x ≥ −½,
+    /// `(x + ½) as u8` rounds half away from zero and saturates at 255 as
+    /// `round().clamp(0, 255)` does (but for x within an ulp below k + ½);
+    /// below, and for NaN, both give 0.
     #[inline]
     pub fn colour(&self, intensity: f64, side: i8) -> [u8; 3] {
         let base = if side >= 0 { self.upper } else { self.under };
-        let q = |c: f64| (c * intensity).round().clamp(0.0, 255.0) as u8;
+        let q = |c: f64| (c * intensity + 0.5) as u8;
         [q(base[0]), q(base[1]), q(base[2])]
     }
 }

@@ -477,21 +477,6 @@ fn split_rows(buf: &mut Buffers, rows: usize) -> Vec<RowsMut<'_>> {
     out
 }
 
-/// [`Shading::colour`] without a call to `round` per channel: for x ≥ −½,
-/// `(x + ½) as u8` rounds half away from zero and saturates at 255 as
-/// `round().clamp(0, 255)` does (but for x within an ulp below k + ½);
-/// below, and for NaN, both give 0.
-#[inline]
-fn colour(shading: &Shading, intensity: f64, side: i8) -> [u8; 3] {
-    let base = if side >= 0 {
-        shading.upper
-    } else {
-        shading.under
-    };
-    let q = |c: f64| (c * intensity + 0.5) as u8;
-    [q(base[0]), q(base[1]), q(base[2])]
-}
-
 /// Write pixel k (row-major index within the block); `acc` is the
 /// supersampled colour and intensity when column supersampling is on.
 #[inline]
@@ -519,7 +504,7 @@ fn write_pixel(
     }
     if acc.is_none() {
         if let Some(rgb) = buf.rgb.as_mut() {
-            rgb[3 * k..3 * k + 3].copy_from_slice(&colour(shading, p.inten, p.side));
+            rgb[3 * k..3 * k + 3].copy_from_slice(&shading.colour(p.inten, p.side));
         }
         if let Some(v) = buf.intensity.as_mut() {
             v[k] = p.inten as f32;
