@@ -2,7 +2,8 @@
 //! bench surfaces of `fcol.bench` section `parametric`:
 //! `cargo run --release --example parametric_time -- <sphere|torus> [size repeat] [key=value ...]`
 //! with keys x_scan (newton | sampled), per_turn, max_error (degrees) and
-//! outputs (comma-separated buffer names).
+//! outputs (comma-separated buffer names); `stats=1` prints the render's
+//! counters.
 
 use _fcol::camera::Projection;
 use _fcol::parametric::{render, Options, XScanMode};
@@ -21,6 +22,7 @@ fn main() {
     let (px, rep) = (num(2, 512), num(3, 5));
     let (mut sampled, mut per_turn, mut max_error) = (true, 16usize, 0.5f64);
     let mut outs = "rgb".to_string();
+    let mut show_stats = false;
     for kv in a.iter().skip(4) {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
@@ -28,6 +30,7 @@ fn main() {
             "per_turn" => per_turn = v.parse().unwrap(),
             "max_error" => max_error = v.parse().unwrap(),
             "outputs" => outs = v.to_string(),
+            "stats" => show_stats = v == "1",
             _ => panic!("unknown option {k}"),
         }
     }
@@ -80,11 +83,13 @@ fn main() {
     let mut samples = 0;
     let mut lines = 0;
     let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    let mut stats = Vec::new();
     for _ in 0..rep {
         let t0 = Instant::now();
         let b = render(&surf, &view, px, px, &outputs, &sh, &opts, &Cancel::new()).unwrap();
         times.push(t0.elapsed().as_secs_f64());
         samples = b.samples;
+        stats = b.stats.clone();
         if let Some(m) = b.mask.as_ref() {
             lines = m.chunks(px).filter(|r| r.iter().any(|&x| x)).count();
         }
@@ -100,6 +105,11 @@ fn main() {
             .flatten()
             .for_each(|v| mix(v.to_bits() as u64));
         b.mask.iter().flatten().for_each(|&m| mix(m as u64));
+    }
+    if show_stats {
+        for (k, v) in &stats {
+            println!("  {k}: {v}");
+        }
     }
     times.sort_by(f64::total_cmp);
     let med = 1e3 * times[times.len() / 2];

@@ -128,6 +128,73 @@ pub struct Net {
     /// Local maxima of y along the silhouette polylines: curtain folds
     /// (§3.4) and the strict maxima they pass through.
     pub sil_peaks: usize,
+    /// For each unit band of y, the pieces (edge windows, then silhouette
+    /// and left-border segments) whose y range meets it, so that a scan
+    /// line looks at those only.
+    rows: [RowIndex; 6],
+}
+
+/// Items whose closed y range [lo, hi] meets the unit band
+/// [k, k + 1) for k = k0, k0 + 1, … (compressed rows, items in order).
+#[derive(Debug, Default)]
+struct RowIndex {
+    k0: i64,
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl RowIndex {
+    /// Index items i with y range `range(i)` (`None`: never met) over the
+    /// bands covering [ylo, yhi].
+    fn build(n: usize, ylo: f64, yhi: f64, range: impl Fn(usize) -> Option<(f64, f64)>) -> Self {
+        let k0 = ylo.floor() as i64 - 1;
+        let nk = (yhi.floor() as i64 + 2 - k0).max(1) as usize;
+        let span = |i: usize| {
+            let (lo, hi) = range(i)?;
+            // NaN-safe: a range that is not ordered meets nothing.
+            if !(lo <= hi) {
+                return None;
+            }
+            let a = (lo.floor().max(k0 as f64) as i64 - k0).max(0) as usize;
+            let b = (hi.floor().min((k0 + nk as i64 - 1) as f64) as i64 - k0).max(-1);
+            (b >= a as i64).then_some((a, b as usize))
+        };
+        let mut count = vec![0u32; nk + 1];
+        for i in 0..n {
+            if let Some((a, b)) = span(i) {
+                for c in &mut count[a..=b] {
+                    *c += 1;
+                }
+            }
+        }
+        let mut start = vec![0u32; nk + 1];
+        for k in 0..nk {
+            start[k + 1] = start[k] + count[k];
+        }
+        let mut fill = start.clone();
+        let mut items = vec![0u32; start[nk] as usize];
+        for i in 0..n {
+            if let Some((a, b)) = span(i) {
+                for f in &mut fill[a..=b] {
+                    items[*f as usize] = i as u32;
+                    *f += 1;
+                }
+            }
+        }
+        RowIndex { k0, start, items }
+    }
+
+    /// The items that may meet y = ys (`None`: outside the indexed bands,
+    /// look at all).
+    fn at(&self, ys: f64) -> Option<&[u32]> {
+        let k = ys.floor();
+        let nk = self.start.len().saturating_sub(1);
+        if !(k >= self.k0 as f64 && k < (self.k0 + nk as i64) as f64) {
+            return None;
+        }
+        let k = (k as i64 - self.k0) as usize;
+        Some(&self.items[self.start[k] as usize..self.start[k + 1] as usize])
+    }
 }
 
 /// Position of edge `e` at parameter t.
@@ -317,7 +384,7 @@ impl Net {
         sil.extend(trace(sc, &gj, &starts_sil, cell, hmax));
         left.extend(trace(sc, &gl, &starts_left, cell, hmax));
         let m = m.max(3);
-        let edges = std::array::from_fn(|e| {
+        let edges: [Vec<(f64, f64)>; 4] = std::array::from_fn(|e| {
             let (t0, t1) = if e < 2 { (d.v0, d.v1) } else { (d.u0, d.u1) };
             let ts: Vec<f64> = (0..m)
                 .map(|k| t0 + (t1 - t0) * k as f64 / (m - 1) as f64)
@@ -346,18 +413,47 @@ impl Net {
             .iter()
             .filter(|s| (s.ya < 0.0) != (s.yb < 0.0))
             .count();
+        // Row index over the image rows (scan lines outside look at all).
+        let h = 0.5 * sc.cam.height as f64;
+        let mm = |a: f64, b: f64| (a.is_finite() && b.is_finite()).then(|| (a.min(b), a.max(b)));
+        let rows = std::array::from_fn(|g| match g {
+            0..=3 => {
+                let w = &edges[g];
+                RowIndex::build(w.len().saturating_sub(1), -h, h, |i| mm(w[i].1, w[i + 1].1))
+            }
+            _ => {
+                let segs = if g == 4 { &sil } else { &left };
+                // Infinite ends are ordered too (the test is on products).
+                RowIndex::build(segs.len(), -h, h, |i| {
+                    let (a, b) = (segs[i].ya, segs[i].yb);
+                    (!(a.is_nan() || b.is_nan())).then(|| (a.min(b), a.max(b)))
+                })
+            }
+        });
         Net {
             edges,
             sil,
             left,
             sil_peaks,
+            rows,
         }
     }
 
     /// Seeds (kind, u, v) for every net crossing of scan line `ys`.
     pub fn seeds(&self, d: &Domain, ys: f64, out: &mut Vec<(Kind, f64, f64)>) {
+        // The indexed pieces of group g (of n), in order.
+        let pick = |g: usize, n: usize| {
+            let (some, all) = match self.rows[g].at(ys) {
+                Some(r) => (r, None),
+                None => (&[][..], Some(0..n)),
+            };
+            some.iter()
+                .map(|&i| i as usize)
+                .chain(all.into_iter().flatten())
+        };
         for (e, samples) in self.edges.iter().enumerate() {
-            for w in samples.windows(2) {
+            for i in pick(e, samples.len().saturating_sub(1)) {
+                let w = &samples[i..i + 2];
                 let ((t0, y0), (t1, y1)) = (w[0], w[1]);
                 if !(y0.is_finite() && y1.is_finite()) {
                     continue;
@@ -369,8 +465,9 @@ impl Net {
                 }
             }
         }
-        for (kind, segs) in [(Kind::Sil, &self.sil), (Kind::Left, &self.left)] {
-            for s in segs.iter() {
+        for (g, kind, segs) in [(4, Kind::Sil, &self.sil), (5, Kind::Left, &self.left)] {
+            for i in pick(g, segs.len()) {
+                let s = &segs[i];
                 if (s.ya - ys) * (s.yb - ys) <= 0.0 && s.ya != s.yb {
                     let t = (ys - s.ya) / (s.yb - s.ya);
                     out.push((

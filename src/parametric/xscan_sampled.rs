@@ -106,6 +106,21 @@ enum Loc {
     Born(usize),
 }
 
+/// Candidate samples of a span (pool indices, at most six).
+struct Cands {
+    idx: [usize; 6],
+    len: usize,
+}
+
+impl Cands {
+    fn as_slice(&self) -> &[usize] {
+        &self.idx[..self.len]
+    }
+    fn as_mut_slice(&mut self) -> &mut [usize] {
+        &mut self.idx[..self.len]
+    }
+}
+
 /// Scan lines a link is trusted without a new middle-pixel test.
 const LINK_AGE: u8 = 4;
 
@@ -631,7 +646,6 @@ impl<'a> XScan<'a> {
         };
         while *j < self.width && self.xpix(*j) <= b.s.x {
             let t = ((self.xpix(*j) - a.s.x) / dx).clamp(0.0, 1.0);
-            let n = (na * (1.0 - t) + nb * t).normalize_or_zero();
             let lerp = |x: f64, y: f64| x + t * (y - x);
             let z = match slopes {
                 Some((m0, m1)) => {
@@ -643,6 +657,13 @@ impl<'a> XScan<'a> {
                 }
                 None => lerp(a.s.z, b.s.z),
             };
+            // Hidden behind a nearer piece already scanned: nothing else
+            // to interpolate (`record` would drop it).
+            if hits[*j].as_ref().is_some_and(|o| !(z < o.z)) {
+                *j += 1;
+                continue;
+            }
+            let n = (na * (1.0 - t) + nb * t).normalize_or_zero();
             self.put(
                 hits,
                 *j,
@@ -658,10 +679,11 @@ impl<'a> XScan<'a> {
 
     /// Candidates for the sample after a: carried samples ahead in x whose
     /// ϑ lies in the window (a.ϑ, a.ϑ + dir·w], farthest angle first.
-    fn candidates(&self, a: &Sample, dir: f64, w: f64, sigma: f64) -> Vec<usize> {
+    fn candidates(&self, a: &Sample, dir: f64, w: f64, sigma: f64) -> Cands {
         let pool = self.pool.borrow();
         let start = pool.cur.partition_point(|c| c.s.x <= a.s.x);
-        let mut out: Vec<(usize, f64, f64)> = Vec::with_capacity(6);
+        let mut out = [(0usize, 0.0f64, 0.0f64); 6];
+        let mut n = 0;
         for (i, c) in pool.cur.iter().enumerate().skip(start).take(96) {
             let dc = dir * wrap(c.phi - a.phi);
             let ok = match c.kind {
@@ -672,20 +694,36 @@ impl<'a> XScan<'a> {
                 SKind::Pixel => false,
             };
             if ok {
-                out.push((i, dc, c.s.x));
-                if out.len() >= 6 {
+                out[n] = (i, dc, c.s.x);
+                n += 1;
+                if n >= 6 {
                     break;
                 }
             }
         }
         // Farthest angle first (the coarsest span that passes is used).
-        out.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.2.total_cmp(&b.2)));
-        out.into_iter().map(|(i, _, _)| i).collect()
+        out[..n].sort_by(|a, b| b.1.total_cmp(&a.1).then(a.2.total_cmp(&b.2)));
+        let mut c = Cands {
+            idx: [0; 6],
+            len: n,
+        };
+        for (o, e) in c.idx.iter_mut().zip(&out[..n]) {
+            *o = e.0;
+        }
+        c
     }
 
     /// Sample at the fine table angle nearest the middle of a and b, made
     /// from the middle solution m; None at the finest level.
-    fn refine(&self, a: &Sample, b: &Sample, m: &ScreenSample, ys: f64) -> Option<Sample> {
+    /// A carried sample of that angle inside the span is taken instead of
+    /// a new solve (with its pool index).
+    fn refine(
+        &self,
+        a: &Sample,
+        b: &Sample,
+        m: &ScreenSample,
+        ys: f64,
+    ) -> Option<(Sample, Option<usize>)> {
         let fs = self.fine_step();
         let mid = a.phi + 0.5 * wrap(b.phi - a.phi);
         let k = (mid / fs).round() as i64;
@@ -697,8 +735,35 @@ impl<'a> XScan<'a> {
         {
             return None;
         }
+        // The tracker of that angle carried from the previous scan line
+        // (§4: samples are trackers), if it lies inside the span on its
+        // arc: no new solve.
+        if let Some(i) = self.carried_theta(k, a, b, m) {
+            return Some((self.pool.borrow().cur[i], Some(i)));
+        }
         let (s, _) = self.track(SKind::Theta(k), m.u, m.v, ys)?;
-        (s.x > a.s.x && s.x < b.s.x).then(|| Sample::new(SKind::Theta(k), s, self.phi(&s)))
+        (s.x > a.s.x && s.x < b.s.x).then(|| (Sample::new(SKind::Theta(k), s, self.phi(&s)), None))
+    }
+
+    /// A carried sample of table angle k strictly inside the span a → b
+    /// (in x), within the (u, v) box of the span around its middle
+    /// solution m (the arc test of [`test_span`](Self::test_span)).
+    fn carried_theta(&self, k: i64, a: &Sample, b: &Sample, m: &ScreenSample) -> Option<usize> {
+        let pool = self.pool.borrow();
+        let start = pool.cur.partition_point(|c| c.s.x <= a.s.x);
+        let l = (b.s.u - a.s.u).abs().max((b.s.v - a.s.v).abs());
+        let tol = 0.3 * l + 1e-9 * self.ext;
+        let sigma = m.jac().signum();
+        pool.cur[start..]
+            .iter()
+            .take_while(|c| c.s.x < b.s.x)
+            .position(|c| {
+                c.kind == SKind::Theta(k)
+                    && c.s.jac() * sigma > 0.0
+                    && (c.s.u - m.u).abs() <= tol
+                    && (c.s.v - m.v).abs() <= tol
+            })
+            .map(|p| start + p)
     }
 
     /// Solve the pixels with centres in (a.x, b.x] exactly from a; false if
@@ -758,13 +823,14 @@ impl<'a> XScan<'a> {
         let target = target_idx * step;
         let w = dir * (target - a.phi);
         let x_last = self.xpix(self.width - 1);
-        let cands = self.candidates(a, dir, w, sigma);
+        let mut cands = self.candidates(a, dir, w, sigma);
         // 0. The link of the previous scan line (§4.2), re-tested every
         // few scan lines.
         if a.link != 0 && a.age < LINK_AGE {
             let found = {
                 let pool = self.pool.borrow();
                 cands
+                    .as_slice()
                     .iter()
                     .find(|&&i| pool.cur[i].id == a.link)
                     .map(|&i| (i, pool.cur[i]))
@@ -783,15 +849,14 @@ impl<'a> XScan<'a> {
         // 1. Carried samples.
         let mut first: Option<(Option<usize>, Sample)> = None;
         let mut known: Option<Test> = None;
-        let mut cands = cands;
         if a.link != 0 {
             let pool = self.pool.borrow();
-            if let Some(k) = cands.iter().position(|&i| pool.cur[i].id == a.link) {
-                let i = cands.remove(k);
-                cands.insert(0, i);
+            let c = cands.as_mut_slice();
+            if let Some(k) = c.iter().position(|&i| pool.cur[i].id == a.link) {
+                c[..=k].rotate_right(1);
             }
         }
-        for (tries, i) in cands.into_iter().enumerate() {
+        for (tries, &i) in cands.as_slice().iter().enumerate() {
             let c = self.pool.borrow().cur[i];
             if tries >= 3 {
                 break;
@@ -896,15 +961,18 @@ impl<'a> XScan<'a> {
                     }
                     st.refined += 1;
                     match self.refine(a, &b, &m, ys) {
-                        Some(r) => {
-                            st.theta_created += 1;
+                        Some((r, i)) => {
+                            if i.is_none() {
+                                st.theta_created += 1;
+                            }
                             b = r;
+                            idx = i;
                         }
                         None => {
                             b = Sample::new(SKind::Pixel, m, self.phi(&m));
+                            idx = None;
                         }
                     }
-                    idx = None;
                 }
             }
         }
