@@ -256,7 +256,6 @@ pub fn render(
                     &mut seeds,
                     &mut st.y,
                 );
-                hits.iter_mut().for_each(|h| *h = None);
                 if sampled {
                     xscan.sampled_begin(&trackers, ys, opts.extrapolate, &mut st.x);
                 }
@@ -264,8 +263,10 @@ pub fn render(
                 if sampled {
                     xscan.sampled_end(&mut st.x);
                 }
-                for (j, h) in hits.iter().enumerate() {
-                    if let Some(px) = h.as_ref().and_then(Pixel::from_hit) {
+                // Only the pixels given a hit on this row (cleared for the
+                // next one as they are read).
+                for j in xscan.take_touched() {
+                    if let Some(px) = hits[j].take().as_ref().and_then(Pixel::from_hit) {
                         pix.push((i * width + j, px));
                     }
                 }

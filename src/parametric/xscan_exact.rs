@@ -150,6 +150,9 @@ pub struct XScan<'a> {
     /// Solve runs of pixels together, one evaluation batch per Newton round
     /// (surfaces whose single-point evaluation is dear: Python callables).
     pub batch: bool,
+    /// The pixels [lo, hi) given a hit since the last
+    /// [`take_touched`](Self::take_touched).
+    touched: std::cell::Cell<(usize, usize)>,
 }
 
 impl<'a> XScan<'a> {
@@ -166,7 +169,14 @@ impl<'a> XScan<'a> {
             pool: Default::default(),
             batch: !sc.surf.cheap_point_eval(),
             first_order: false,
+            touched: std::cell::Cell::new((usize::MAX, 0)),
         }
+    }
+
+    /// The range of pixels given a hit since the last call (empty if none).
+    pub fn take_touched(&self) -> std::ops::Range<usize> {
+        let (lo, hi) = self.touched.replace((usize::MAX, 0));
+        lo.min(hi)..hi
     }
 
     #[inline]
@@ -589,6 +599,8 @@ impl<'a> XScan<'a> {
         };
         if better {
             hits[j] = Some(h);
+            let (lo, hi) = self.touched.get();
+            self.touched.set((lo.min(j), hi.max(j + 1)));
         }
     }
 

@@ -456,17 +456,24 @@ impl<'a> XScan<'a> {
             };
             cur.push(Sample::new(kind, t.s, self.phi(&t.s)));
         }
-        cur.sort_by(|a, b| {
-            a.s.x
-                .total_cmp(&b.s.x)
-                .then(a.s.u.total_cmp(&b.s.u))
-                .then(a.s.v.total_cmp(&b.s.v))
+        // Sorted by (x, u, v), stably: the keys are sorted and the samples
+        // moved once.
+        let mut order: Vec<(f64, f64, f64, u32)> = cur
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (c.s.x, c.s.u, c.s.v, i as u32))
+            .collect();
+        order.sort_unstable_by(|a, b| {
+            a.0.total_cmp(&b.0)
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.total_cmp(&b.2))
+                .then(a.3.cmp(&b.3))
         });
         // Two trackers of the same angle that met (a minimum of y along
         // them): keep one.
         let tol = 1e-7 * self.ext;
         let mut out: Vec<Sample> = Vec::with_capacity(cur.len());
-        for c in cur {
+        for c in order.iter().map(|o| &cur[o.3 as usize]) {
             let dup = out.iter().rev().take(8).any(|o| {
                 o.kind == c.kind
                     && matches!(c.kind, SKind::Theta(_) | SKind::Turn)
@@ -476,7 +483,7 @@ impl<'a> XScan<'a> {
             if dup {
                 st.theta_deleted += 1;
             } else {
-                out.push(c);
+                out.push(*c);
             }
         }
         pool.used = vec![false; out.len()];
