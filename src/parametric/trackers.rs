@@ -276,13 +276,15 @@ fn trace<G: Fn(&ScreenSample) -> (f64, f64, f64)>(
             if du.abs().max(dv.abs()) > cell {
                 return None;
             }
+            // Converged: the point just evaluated is the answer (the step
+            // left is below 1e-12 of a cell; no evaluation for it).
+            if du.abs().max(dv.abs()) < 1e-12 * cell {
+                return d.contains(u + du, v + dv).then_some(s);
+            }
             u += du;
             v += dv;
             if !d.contains(u, v) {
                 return None;
-            }
-            if du.abs().max(dv.abs()) < 1e-12 * cell {
-                return sc.eval(u, v);
             }
         }
         let s = sc.eval(u, v)?;
@@ -1000,8 +1002,15 @@ impl<'a> YScan<'a> {
         if first || self.rescue {
             net.seeds(&d, ys, seeds);
         }
-        for &(kind, u, v) in seeds.iter() {
-            if let Some((s, _, _)) = self.solve(kind, u, v, ys) {
+        // All crossings solved together (one evaluation batch per Newton
+        // round), then added in order.
+        let solved = if seeds.is_empty() {
+            Vec::new()
+        } else {
+            self.solve_many(seeds, ys)
+        };
+        for (&(kind, _, _), r) in seeds.iter().zip(solved) {
+            if let Some((s, _, _)) = r {
                 if add(&mut out, kind, s) {
                     if first {
                         st.band_seeds += 1;
