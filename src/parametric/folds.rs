@@ -17,7 +17,7 @@
 //! the silhouette, and the curve's own second-order term, come from the
 //! silhouette points at ±h along its tangent.
 
-use super::screen::{GridSamples, Screen, ScreenSample};
+use super::screen::{Screen, ScreenSample};
 use super::trackers::march;
 
 /// A maximum of y along the silhouette (a curtain fold).
@@ -94,15 +94,19 @@ fn onto_silhouette(sc: &Screen<'_>, pts: &mut [(f64, f64)], ext: f64) -> Vec<Opt
 /// along the silhouette that are not stationary points of y (those are
 /// the strict maxima and saddles, found by their own searches).
 pub fn find_folds(sc: &Screen<'_>, n: usize) -> Vec<Fold> {
-    find_folds_on(sc, &GridSamples::new(sc, n))
-}
-
-/// [`find_folds`] on an evaluated grid.
-pub fn find_folds_on(sc: &Screen<'_>, grid: &GridSamples) -> Vec<Fold> {
     let d = sc.dom;
-    let n = grid.n;
+    let n = n.max(3);
     let ext = (d.u1 - d.u0).max(d.v1 - d.v0);
-    let (us, vs, ss) = (&grid.us, &grid.vs, &grid.ss);
+    let (us, vs): (Vec<f64>, Vec<f64>) = (0..n * n)
+        .map(|q| {
+            let (i, k) = (q % n, q / n);
+            (
+                d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64,
+                d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64,
+            )
+        })
+        .unzip();
+    let ss = sc.eval_batch(&us, &vs);
     let j: Vec<f64> = ss.iter().map(|s| s.map_or(f64::NAN, |s| s.jac())).collect();
     let t: Vec<f64> = ss
         .iter()

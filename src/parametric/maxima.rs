@@ -8,7 +8,7 @@
 //! outwards is frozen: the climb then ends at an edge maximum
 //! (y_v = 0 with y_u pushing out of a u edge, …) or a corner maximum.
 
-use super::screen::{GridSamples, Screen, ScreenSample};
+use super::screen::{Screen, ScreenSample};
 
 /// Where a maximum lies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -182,15 +182,28 @@ pub fn climb(sc: &Screen<'_>, mut u: f64, mut v: f64) -> Option<Maximum> {
 /// Find the local maxima of screen y. `n` is the number of grid nodes along
 /// each parameter (≥ 3).
 pub fn find_maxima(sc: &Screen<'_>, n: usize) -> MaximaList {
-    find_maxima_on(sc, &GridSamples::new(sc, n))
-}
-
-/// [`find_maxima`] on an evaluated grid.
-pub fn find_maxima_on(sc: &Screen<'_>, grid: &GridSamples) -> MaximaList {
     let d = sc.dom;
-    let n = grid.n;
-    let node = |i: usize, k: usize| (grid.us[k * n + i], grid.vs[k * n + i]);
-    let ys = grid.ys();
+    let n = n.max(3);
+    let node = |i: usize, k: usize| {
+        (
+            d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64,
+            d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64,
+        )
+    };
+    let mut us = Vec::with_capacity(n * n);
+    let mut vs = Vec::with_capacity(n * n);
+    for k in 0..n {
+        for i in 0..n {
+            let (u, v) = node(i, k);
+            us.push(u);
+            vs.push(v);
+        }
+    }
+    let ys: Vec<f64> = sc
+        .eval_batch(&us, &vs)
+        .iter()
+        .map(|s| s.map_or(f64::NAN, |s| s.y))
+        .collect();
     let mut starts = vec![(d.u0, d.v0), (d.u1, d.v0), (d.u0, d.v1), (d.u1, d.v1)];
     starts.push((0.5 * (d.u0 + d.u1), 0.5 * (d.v0 + d.v1)));
     for k in 0..n {
@@ -370,15 +383,20 @@ fn edge_maxima(sc: &Screen<'_>, m: usize, out: &mut MaximaList) {
 /// (y_u, y_v) = 0 from every grid node whose eight neighbours change sign
 /// around it at least four times; kept when y_uv² − y_uu y_vv > 0.
 pub fn find_saddles(sc: &Screen<'_>, n: usize) -> Vec<ScreenSample> {
-    find_saddles_on(sc, &GridSamples::new(sc, n))
-}
-
-/// [`find_saddles`] on an evaluated grid.
-pub fn find_saddles_on(sc: &Screen<'_>, grid: &GridSamples) -> Vec<ScreenSample> {
     let d = sc.dom;
-    let n = grid.n;
-    let node = |i: usize, k: usize| (grid.us[k * n + i], grid.vs[k * n + i]);
-    let ys = grid.ys();
+    let n = n.max(3);
+    let node = |i: usize, k: usize| {
+        (
+            d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64,
+            d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64,
+        )
+    };
+    let (us, vs): (Vec<f64>, Vec<f64>) = (0..n * n).map(|q| node(q % n, q / n)).unzip();
+    let ys: Vec<f64> = sc
+        .eval_batch(&us, &vs)
+        .iter()
+        .map(|s| s.map_or(f64::NAN, |s| s.y))
+        .collect();
     let ext = (d.u1 - d.u0).max(d.v1 - d.v0);
     let ring = [
         (1i64, 0i64),

@@ -168,36 +168,26 @@ pub fn render(
     let sc = Screen::new(surf, &cam);
     let x_left = -0.5 * width as f64;
     // The pre-scans are independent: run them side by side.
-    // One evaluation of the parameter grid serves every pre-scan (the net
-    // has its own when `grid` exceeds the searches' 129).
     let g = opts.grid.min(129);
-    let grid = screen::GridSamples::new(&sc, g);
     let ((maxima, net), ((saddles, folds), seams)) = rayon::join(
         || {
             rayon::join(
-                || maxima::find_maxima_on(&sc, &grid),
-                || {
-                    if g == opts.grid.max(3) {
-                        trackers::Net::build_on(&sc, &grid, 4 * opts.grid, x_left)
-                    } else {
-                        trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left)
-                    }
-                },
+                || maxima::find_maxima(&sc, g),
+                || trackers::Net::build(&sc, opts.grid, 4 * opts.grid, x_left),
             )
         },
         || {
             rayon::join(
                 || {
                     rayon::join(
-                        || maxima::find_saddles_on(&sc, &grid),
-                        || folds::find_folds_on(&sc, &grid),
+                        || maxima::find_saddles(&sc, g),
+                        || folds::find_folds(&sc, g),
                     )
                 },
                 || trackers::seams(&sc),
             )
         },
     );
-    drop(grid);
     // Depth unit of the sampled scan's cross-section angle: one pixel at
     // the view distance.
     let zs = match view.projection {

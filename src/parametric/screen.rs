@@ -58,50 +58,6 @@ impl ScreenSample {
     }
 }
 
-/// The screen samples of the n × n parameter grid (node (i, k) at index
-/// k·n + i, u_i = u0 + (u1 − u0)·i/(n − 1), likewise v_k), evaluated once
-/// and shared by the pre-scans (maxima, saddles, curtain folds, the net).
-pub struct GridSamples {
-    pub n: usize,
-    pub us: Vec<f64>,
-    pub vs: Vec<f64>,
-    pub ss: Vec<Option<ScreenSample>>,
-}
-
-impl GridSamples {
-    /// Evaluate the grid (rows in parallel; each point's value does not
-    /// depend on the batch it is evaluated in).
-    pub fn new(sc: &Screen<'_>, n: usize) -> Self {
-        use rayon::prelude::*;
-        let d = sc.dom;
-        let n = n.max(3);
-        let (us, vs): (Vec<f64>, Vec<f64>) = (0..n * n)
-            .map(|q| {
-                let (i, k) = (q % n, q / n);
-                (
-                    d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64,
-                    d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64,
-                )
-            })
-            .unzip();
-        let rows = 8 * n;
-        let ss = us
-            .par_chunks(rows)
-            .zip(vs.par_chunks(rows))
-            .flat_map_iter(|(u, v)| sc.eval_batch(u, v))
-            .collect();
-        GridSamples { n, us, vs, ss }
-    }
-
-    /// Screen y at every node (NaN where the evaluation failed).
-    pub fn ys(&self) -> Vec<f64> {
-        self.ss
-            .iter()
-            .map(|s| s.map_or(f64::NAN, |s| s.y))
-            .collect()
-    }
-}
-
 /// Quotient q = a / b with first and second derivatives.
 #[inline]
 fn quotient(a: [f64; 6], b: [f64; 6]) -> [f64; 6] {

@@ -39,7 +39,7 @@
 
 use super::folds::Fold;
 use super::maxima::{MaxKind, Maximum};
-use super::screen::{GridSamples, Screen, ScreenSample};
+use super::screen::{Screen, ScreenSample};
 use crate::surface::Domain;
 
 /// What a tracker follows.
@@ -352,14 +352,17 @@ fn trace<G: Fn(&ScreenSample) -> (f64, f64, f64)>(
 impl Net {
     /// Sample the patch on an n×n grid and each edge at `m` points.
     pub fn build(sc: &Screen<'_>, n: usize, m: usize, x_left: f64) -> Net {
-        Self::build_on(sc, &GridSamples::new(sc, n), m, x_left)
-    }
-
-    /// [`build`](Self::build) on an evaluated grid.
-    pub fn build_on(sc: &Screen<'_>, grid: &GridSamples, m: usize, x_left: f64) -> Net {
         let d = sc.dom;
-        let n = grid.n;
-        let (us, vs, ss) = (&grid.us, &grid.vs, &grid.ss);
+        let n = n.max(3);
+        let mut us = Vec::with_capacity(n * n);
+        let mut vs = Vec::with_capacity(n * n);
+        for k in 0..n {
+            for i in 0..n {
+                us.push(d.u0 + (d.u1 - d.u0) * i as f64 / (n - 1) as f64);
+                vs.push(d.v0 + (d.v1 - d.v0) * k as f64 / (n - 1) as f64);
+            }
+        }
+        let ss = sc.eval_batch(&us, &vs);
         let y: Vec<f64> = ss.iter().map(|s| s.map_or(f64::NAN, |s| s.y)).collect();
         let j: Vec<f64> = ss.iter().map(|s| s.map_or(f64::NAN, |s| s.jac())).collect();
         let gx: Vec<f64> = ss
