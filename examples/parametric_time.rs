@@ -3,7 +3,8 @@
 //! `cargo run --release --example parametric_time -- <sphere|torus> [size repeat] [key=value ...]`
 //! with keys x_scan (newton | sampled), per_turn, max_error (degrees) and
 //! outputs (comma-separated buffer names); `stats=1` prints the render's
-//! counters.
+//! counters, `dump=<path>` writes the depth, normal and mask buffers of the
+//! last render (raw little-endian f32, f32×3 and u8, row-major).
 
 use _fcol::camera::Projection;
 use _fcol::parametric::{render, Options, XScanMode};
@@ -23,6 +24,7 @@ fn main() {
     let (mut sampled, mut per_turn, mut max_error) = (true, 16usize, 0.5f64);
     let mut outs = "rgb".to_string();
     let mut show_stats = false;
+    let mut dump: Option<String> = None;
     for kv in a.iter().skip(4) {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
@@ -31,6 +33,7 @@ fn main() {
             "max_error" => max_error = v.parse().unwrap(),
             "outputs" => outs = v.to_string(),
             "stats" => show_stats = v == "1",
+            "dump" => dump = Some(v.to_string()),
             _ => panic!("unknown option {k}"),
         }
     }
@@ -90,6 +93,16 @@ fn main() {
         times.push(t0.elapsed().as_secs_f64());
         samples = b.samples;
         stats = b.stats.clone();
+        if let Some(path) = dump.as_ref() {
+            let mut bytes: Vec<u8> = Vec::new();
+            b.depth
+                .iter()
+                .flatten()
+                .chain(b.normal.iter().flatten())
+                .for_each(|v| bytes.extend_from_slice(&v.to_le_bytes()));
+            bytes.extend(b.mask.iter().flatten().map(|&m| m as u8));
+            std::fs::write(path, bytes).expect("dump");
+        }
         if let Some(m) = b.mask.as_ref() {
             lines = m.chunks(px).filter(|r| r.iter().any(|&x| x)).count();
         }

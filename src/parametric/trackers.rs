@@ -152,7 +152,10 @@ impl RowIndex {
         let span = |i: usize| {
             let (lo, hi) = range(i)?;
             // NaN-safe: a range that is not ordered meets nothing.
-            if !(lo <= hi) {
+            if lo
+                .partial_cmp(&hi)
+                .is_none_or(|o| o == std::cmp::Ordering::Greater)
+            {
                 return None;
             }
             let a = (lo.floor().max(k0 as f64) as i64 - k0).max(0) as usize;

@@ -666,7 +666,10 @@ impl<'a> XScan<'a> {
             };
             // Hidden behind a nearer piece already scanned: nothing else
             // to interpolate (`record` would drop it).
-            if hits[*j].as_ref().is_some_and(|o| !(z < o.z)) {
+            if hits[*j]
+                .as_ref()
+                .is_some_and(|o| z.partial_cmp(&o.z) != Some(std::cmp::Ordering::Less))
+            {
                 *j += 1;
                 continue;
             }
