@@ -24,6 +24,7 @@ use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
 use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
+use super::SharedOut;
 use crate::cancel::Cancel;
 use crate::error::Result;
 use crate::surface::HeightSample;
@@ -31,6 +32,10 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
+
+/// The pixels where the surface is seen, as lists of (row-major index,
+/// pixel): one list per azimuth bin and one of the filled holes.
+pub type PixelLists = Vec<Vec<(usize, Pixel)>>;
 
 /// One pixel's ray in the radial frame: pixel index and pseudo-elevation
 /// tan(θ/2) (see [`elevation`]).
@@ -41,15 +46,19 @@ struct Ray {
 }
 
 /// Render a perspective view: the pixels where the surface is seen (each
-/// once, as (row-major index, pixel)) and the counters. Pixel (i, j) is
+/// once, in lists of (row-major index, pixel)) and the counters. Pixel (i, j) is
 /// sampled on the ray through (row i + `off`.0, column j + `off`.1): (0, 0)
 /// is the pixel centre, offsets in (−½, ½) are the sub-pixel positions of
 /// the §6.4 supersampling.
-pub fn render_radial(
+///
+/// With `direct`, each bin writes its pixels into those buffers as it
+/// finishes (and the lists come back empty); without coverage only.
+pub(crate) fn render_radial(
     ctx: &Ctx<'_>,
     off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
     cancel: &Cancel,
-) -> Result<(Vec<(usize, Pixel)>, ColumnStats)> {
+) -> Result<(PixelLists, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -122,6 +131,17 @@ pub fn render_radial(
     }
     drop(per_px);
     let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
+    // Which pixels are set and their depths, compactly (for the hole
+    // filling): written by the bins (each its own pixels) when they write
+    // their pixels directly, else gathered from their lists.
+    let mut set = vec![false; w * h];
+    let mut depth = vec![f64::NAN; w * h];
+    let direct = direct.filter(|_| !ctx.opts.coverage);
+    let marks = Marks {
+        n: w * h,
+        set: set.as_mut_ptr(),
+        depth: depth.as_mut_ptr(),
+    };
     let results: Vec<Result<BinResult>> = groups
         .par_iter()
         .map(|&b| {
@@ -138,31 +158,78 @@ pub fn render_radial(
             sw.run();
             sw.solve();
             sw.finish_coverage();
+            if let Some(out) = direct {
+                for (k, p) in &sw.out {
+                    // SAFETY: the bins partition the pixels and a bin lists
+                    // each of its pixels once, so no other thread touches
+                    // pixel k.
+                    unsafe {
+                        out.put(*k, p);
+                        marks.put(*k, p);
+                    }
+                }
+                sw.out.clear();
+            }
             Ok((sw.out, sw.stats))
         })
         .collect();
-    // Which pixels are set and their depths, compactly (for the hole
-    // filling); the pixels themselves stay in one list.
-    let mut set = vec![false; w * h];
-    let mut depth = vec![f64::NAN; w * h];
     let mut stats = ColumnStats::default();
-    let mut all = Vec::with_capacity(w * h);
+    let mut all = Vec::with_capacity(results.len() + 1);
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
-        for &(k, p) in &px {
-            set[k] = p.set;
-            depth[k] = p.depth;
+        if direct.is_none() {
+            for &(k, p) in &px {
+                set[k] = p.set;
+                depth[k] = p.depth;
+            }
+            all.push(px);
         }
-        all.extend(px);
     }
-    fill_holes(ctx, off, &mut set, &mut depth, &mut all, &mut stats);
+    let mut holes = Vec::new();
+    fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
+    if let Some(out) = direct {
+        for (k, p) in &holes {
+            // SAFETY: the bins are done; this thread alone writes.
+            unsafe { out.put(*k, p) };
+        }
+    } else {
+        all.push(holes);
+    }
     if ctx.opts.coverage {
         // A partly covered pixel that the hole filling set keeps only its
         // set entry.
-        all.retain(|(k, p)| p.set || !set[*k]);
+        for list in &mut all {
+            list.retain(|(k, p)| p.set || !set[*k]);
+        }
     }
     Ok((all, stats))
+}
+
+/// Raw views of the set flags and depths of [`render_radial`]'s pixels,
+/// written by the bins (each pixel by one bin only).
+struct Marks {
+    n: usize,
+    set: *mut bool,
+    depth: *mut f64,
+}
+
+// SAFETY: written only through `put`, each pixel from one thread only.
+unsafe impl Sync for Marks {}
+unsafe impl Send for Marks {}
+
+impl Marks {
+    /// # Safety
+    /// No other thread reads or writes pixel k meanwhile.
+    #[inline]
+    unsafe fn put(&self, k: usize, p: &Pixel) {
+        assert!(k < self.n, "pixel index out of range");
+        // SAFETY: k < n (the length of both arrays), access exclusive.
+        unsafe {
+            *self.set.add(k) = p.set;
+            *self.depth.add(k) = p.depth;
+        }
+    }
 }
 
 /// Screen pixels per unit of the pseudo-elevation s = tan(θ/2) (see
@@ -451,6 +518,38 @@ pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
         -r
     } else {
         r
+    }
+}
+
+/// What the pixels of one span share: the samples' points and distances
+/// from the eye, the side revealed, and the span's cubic (none for walls).
+struct SpanConst {
+    pa: DVec3,
+    pb: DVec3,
+    la: f64,
+    lb: f64,
+    topo: i8,
+    cubic: Option<super::column::SpanCubic>,
+}
+
+impl SpanConst {
+    #[inline]
+    fn new(ctx: &Ctx<'_>, a: &Sample, b: &Sample, wall: bool) -> SpanConst {
+        let e = ctx.cam.eye;
+        let (pa, pb) = (a.world(&ctx.frame), b.world(&ctx.frame));
+        SpanConst {
+            pa,
+            pb,
+            la: (pa - e).length(),
+            lb: (pb - e).length(),
+            // Upwards (θ increasing) reveals the upper side, in world terms.
+            topo: if b.rho > a.rho { 1 } else { -1 },
+            cubic: if wall {
+                None
+            } else {
+                super::column::SpanCubic::new(a, b)
+            },
+        }
     }
 }
 
@@ -991,13 +1090,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             k += 1;
         }
         self.cursor = k;
-        while k < self.rays.len() && self.rays[k].theta * self.ppr <= hi {
-            let th = self.rays[k].theta * self.ppr;
+        let sp = SpanConst::new(self.ctx, a, b, wall);
+        while k < self.rays.len() && self.rays[k].theta * ppr <= hi {
+            let th = self.rays[k].theta * ppr;
             if !self.done[k] && !self.cov.contains(th) {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
-                let px = self.pixel(a, b, dir, th, wall);
+                let px = self.pixel(a, b, &sp, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }
             k += 1;
@@ -1005,21 +1105,25 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.cov.add(lo, hi);
     }
 
-    fn pixel(&mut self, a: &Sample, b: &Sample, dir: DVec3, th: f64, wall: bool) -> Pixel {
+    #[inline]
+    fn pixel(
+        &mut self,
+        a: &Sample,
+        b: &Sample,
+        sp: &SpanConst,
+        dir: DVec3,
+        th: f64,
+        wall: bool,
+    ) -> Pixel {
         let ctx = self.ctx;
         let cam = ctx.cam;
         let e = cam.eye;
-        let pa = a.world(&ctx.frame);
-        let pb = b.world(&ctx.frame);
+        let (pa, pb) = (sp.pa, sp.pb);
         // The point of the bin's plane at elevation θ: on the cubic through
         // the two samples (horizontal distance and height with their exact
         // slopes), or, where that cubic folds over (a silhouette between the
         // samples), on the chord with an exact solve to follow.
-        let herm = if wall {
-            None
-        } else {
-            super::column::hermite_at(a, b, th)
-        };
+        let herm = sp.cubic.as_ref().and_then(|c| c.at(th));
         let (tau, p) = match herm {
             Some((tau, r, w)) => {
                 let h = DVec2::new(e.x, e.y) + r * self.eh;
@@ -1051,8 +1155,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
         }
         let q0 = e + lam0 * dir;
-        // Upwards (θ increasing) reveals the upper side, in world terms.
-        let topo: i8 = if b.rho > a.rho { 1 } else { -1 };
+        let topo = sp.topo;
         let mut px = Pixel {
             set: true,
             side: topo,
@@ -1066,8 +1169,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
-            let la = (pa - e).length();
-            let lb = (pb - e).length();
+            let (la, lb) = (sp.la, sp.lb);
             let span = (la - lb).abs();
             self.jobs.push(super::refine::Job {
                 slot: self.out.len(),
