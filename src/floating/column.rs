@@ -848,7 +848,7 @@ impl Sweep<'_, '_> {
     /// batched exact solve, bracketed by the span a–b; false when the ray
     /// does not look into the scene.
     fn queue(&mut self, a: &Sample, b: &Sample, i: usize, o: DVec3, dir: DVec3, z: f64) -> bool {
-        let fr = self.ctx.frame;
+        let fr = &self.ctx.frame;
         let dd = dir.dot(self.ctx.cam.d);
         if dd <= 0.0 {
             return false;

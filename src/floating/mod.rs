@@ -568,7 +568,7 @@ fn split_rows(buf: &mut Buffers, rows: usize) -> Vec<RowsMut<'_>> {
 
 /// Write pixel k (row-major index within the block); `acc` is the
 /// supersampled colour and intensity when column supersampling is on.
-#[inline]
+#[inline(always)]
 fn write_pixel(
     buf: &mut RowsMut<'_>,
     k: usize,

@@ -278,10 +278,35 @@ fn fill_holes(
         (set[k] && dd > 0.0 && depth[k].is_finite()).then(|| depth[k] / dd)
     };
     for i in 0..h {
-        for j in 0..w {
+        let mut j = 0;
+        while j < w {
+            // Eight pixels at a time, those that cannot be holes are
+            // skipped: a hole is unset with its upper or left neighbour set
+            // (the patterns below), and filling one changes nothing before it.
+            while j >= 1 && j + 8 <= w {
+                let here = bytes8(set, i * w + j);
+                let left = bytes8(set, i * w + j - 1);
+                let up = if i > 0 {
+                    bytes8(set, (i - 1) * w + j)
+                } else {
+                    0
+                };
+                if (!here & 0x0101_0101_0101_0101) & (up | left) != 0 {
+                    break;
+                }
+                j += 8;
+            }
+            if j >= w {
+                break;
+            }
             if set[i * w + j] {
+                j += 1;
                 continue;
             }
+            // Pixel (i, j), then on to the next.
+            let jj = j;
+            j += 1;
+            let j = jj;
             let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
             let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
             // The first pixel of a gap of two (its partner is searched next,
@@ -345,6 +370,13 @@ fn fill_holes(
         }
     }
     stats.refine_evals += sw.stats.refine_evals;
+}
+
+/// Eight set flags from index a, one byte each (1: set).
+#[inline]
+fn bytes8(set: &[bool], a: usize) -> u64 {
+    let b: &[bool; 8] = set[a..a + 8].try_into().expect("eight flags");
+    u64::from_le_bytes(b.map(u8::from))
 }
 
 /// The sweep's elevation coordinate of the direction (h, z) (horizontal
