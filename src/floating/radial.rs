@@ -112,23 +112,54 @@ pub(crate) fn render_radial(
                 *slot = (b as u32, elevation(dir.z, hl));
             }
         });
+    // The counting sort in blocks of rows, in parallel: each block's count
+    // per bin, each bin's slots (in block order, so that every bin lists
+    // its pixels in row-major order, as a serial sort does), then each
+    // block places its pixels in its own slots.
+    let n = w * h;
+    let block = (w * h.div_ceil(4 * rayon::current_num_threads().max(1))).max(1);
+    let mut slots: Vec<Vec<u32>> = per_px
+        .par_chunks(block)
+        .map(|c| {
+            let mut count = vec![0u32; nb];
+            for &(b, _) in c {
+                count[b as usize] += 1;
+            }
+            count
+        })
+        .collect();
     let mut start = vec![0usize; nb + 1];
-    for &(b, _) in &per_px {
-        start[b as usize + 1] += 1;
-    }
     for b in 0..nb {
-        start[b + 1] += start[b];
+        let mut at = start[b];
+        for s in slots.iter_mut() {
+            let c = s[b] as usize;
+            s[b] = at as u32;
+            at += c;
+        }
+        start[b + 1] = at;
     }
-    let mut fill = start.clone();
-    let mut rays = vec![Ray { k: 0, theta: 0.0 }; w * h];
-    for (k, &(b, th)) in per_px.iter().enumerate() {
-        let b = b as usize;
-        rays[fill[b]] = Ray {
-            k: k as u32,
-            theta: th,
-        };
-        fill[b] += 1;
-    }
+    let mut rays: Vec<Ray> = Vec::with_capacity(n);
+    let dst = RayOut(rays.as_mut_ptr());
+    per_px
+        .par_chunks(block)
+        .zip(slots.par_iter_mut())
+        .enumerate()
+        .for_each(|(m, (c, next))| {
+            for (q, &(b, th)) in c.iter().enumerate() {
+                let slot = &mut next[b as usize];
+                let ray = Ray {
+                    k: (m * block + q) as u32,
+                    theta: th,
+                };
+                // SAFETY: the slots of all blocks and bins partition 0..n
+                // (each block has its own run of slots in every bin).
+                unsafe { dst.put(*slot as usize, n, ray) };
+                *slot += 1;
+            }
+        });
+    // SAFETY: every slot of 0..n was written once above (the counts add up
+    // to n = w·h, the length of `per_px`).
+    unsafe { rays.set_len(n) };
     drop(per_px);
     let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
     // Which pixels are set and their depths, compactly (for the hole
@@ -204,6 +235,25 @@ pub(crate) fn render_radial(
         }
     }
     Ok((all, stats))
+}
+
+/// The destination of the parallel counting sort.
+struct RayOut(*mut Ray);
+
+// SAFETY: written only through `put`, each slot from one thread only.
+unsafe impl Sync for RayOut {}
+unsafe impl Send for RayOut {}
+
+impl RayOut {
+    /// # Safety
+    /// `slot < n`, the capacity of the destination, and no other thread
+    /// writes that slot.
+    #[inline]
+    unsafe fn put(&self, slot: usize, n: usize, ray: Ray) {
+        assert!(slot < n, "slot out of range");
+        // SAFETY: in bounds of the allocation and exclusive (see above).
+        unsafe { self.0.add(slot).write(ray) };
+    }
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
