@@ -690,12 +690,56 @@ impl<'c, 'a> Sweep<'c, 'a> {
             } else {
                 SpanCubic::new(a, b)
             };
-            for i in i0..=i1 {
-                let x = i as f64;
-                if self.cov.contains(x) {
-                    continue;
+            let cam = self.ctx.cam;
+            let dd = cam.d.dot(cam.d);
+            if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
+                // The common orthographic case, every pixel queued for its
+                // exact solve: what `pixel` and `queue` do, with the span's
+                // and the column's constants hoisted.
+                let (xs, _) = cam.pixel_to_screen(0.0, self.col);
+                let base = cam.eye + (xs * cam.pixel) * cam.r;
+                let fp = fr.pixel;
+                let span = (a.z - b.z).abs();
+                let lo_j = a.z.min(b.z) - 2.0 * fp - span;
+                let hi_j = a.z.max(b.z) + 2.0 * fp + span;
+                for i in i0..=i1 {
+                    let row = i as f64;
+                    if self.cov.contains(row) {
+                        continue;
+                    }
+                    let Some((tau, t, w)) = c.at(row) else {
+                        out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+                        continue;
+                    };
+                    let z = t * fr.d_t + w * fr.d_w;
+                    out[i as usize] = Pixel {
+                        set: true,
+                        side: topo,
+                        depth: z,
+                        n: a.n.lerp(b.n, tau).normalize_or(a.n),
+                        uv: a.uv.lerp(b.uv, tau),
+                        inten: a.inten + tau * (b.inten - a.inten),
+                        cover: 1.0,
+                    };
+                    let (_, ys) = cam.pixel_to_screen(row, self.col);
+                    self.jobs.push(super::refine::Job {
+                        slot: i as usize,
+                        o: base + (ys * cam.pixel) * cam.up,
+                        dir: cam.d,
+                        lam: z,
+                        lo: lo_j,
+                        hi: hi_j,
+                        fp,
+                    });
                 }
-                out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+            } else {
+                for i in i0..=i1 {
+                    let x = i as f64;
+                    if self.cov.contains(x) {
+                        continue;
+                    }
+                    out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+                }
             }
         }
         self.cov.add(lo, hi);
