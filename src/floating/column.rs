@@ -266,56 +266,88 @@ pub(crate) fn hermite_range(p0: f64, p1: f64, m0: f64, m1: f64) -> (f64, f64) {
     (lo, hi)
 }
 
-/// The point of the span a → b at row `row` on the cubic Hermite through the
-/// two samples' rows and heights with their exact slopes along the sweep
-/// (§4.2's interpolation, to fourth order instead of second): (τ, t, w').
+/// The cubic Hermite of a span a → b through the two samples' rows and
+/// heights with their exact slopes along the sweep (§4.2's interpolation, to
+/// fourth order instead of second), its coefficients set up once per span.
 /// `None` where the cubic's rows are not monotone over the span (a
-/// silhouette between the samples: Fritsch–Carlson's α² + β² ≤ 9 fails) or
-/// the solve does not settle; the caller then interpolates linearly and
-/// solves the pixel exactly.
-#[inline]
-pub(super) fn hermite_at(a: &Sample, b: &Sample, row: f64) -> Option<(f64, f64, f64)> {
-    let dt = b.t - a.t;
-    let dr = b.rho - a.rho;
-    let (m0, m1) = (a.drho_dt * dt, b.drho_dt * dt);
-    if dr == 0.0 || !(m0.is_finite() && m1.is_finite()) {
-        return None;
-    }
-    let (al, be) = (m0 / dr, m1 / dr);
-    if al < 0.0 || be < 0.0 || al * al + be * be > 9.0 {
-        return None;
-    }
-    let ca = 2.0 * (a.rho - b.rho) + m0 + m1;
-    let cb = 3.0 * dr - 2.0 * m0 - m1;
-    let mut tau = ((row - a.rho) / dr).clamp(0.0, 1.0);
-    let mut res = f64::INFINITY;
-    for _ in 0..4 {
-        let p = ((ca * tau + cb) * tau + m0) * tau + a.rho - row;
-        res = p.abs();
-        if res < 1e-7 {
-            break;
-        }
-        let dp = (3.0 * ca * tau + 2.0 * cb) * tau + m0;
-        if dp * dr <= 0.0 {
+/// silhouette between the samples: Fritsch–Carlson's α² + β² ≤ 9 fails);
+/// the caller then interpolates linearly and solves the pixels exactly.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct SpanCubic {
+    rho0: f64,
+    t0: f64,
+    dt: f64,
+    dr: f64,
+    m0: f64,
+    ca: f64,
+    cb: f64,
+    w0: f64,
+    n0: f64,
+    wa: f64,
+    wb: f64,
+}
+
+impl SpanCubic {
+    #[inline]
+    pub(super) fn new(a: &Sample, b: &Sample) -> Option<SpanCubic> {
+        let dt = b.t - a.t;
+        let dr = b.rho - a.rho;
+        let (m0, m1) = (a.drho_dt * dt, b.drho_dt * dt);
+        if dr == 0.0 || !(m0.is_finite() && m1.is_finite()) {
             return None;
         }
-        tau = (tau - p / dp).clamp(0.0, 1.0);
-    }
-    if res > 1e-3 {
-        let p = ((ca * tau + cb) * tau + m0) * tau + a.rho - row;
-        if p.abs() > 1e-3 {
+        let (al, be) = (m0 / dr, m1 / dr);
+        if al < 0.0 || be < 0.0 || al * al + be * be > 9.0 {
             return None;
         }
+        let (w0, w1) = (a.wr, b.wr);
+        let (n0, n1) = (a.dw_dt * dt, b.dw_dt * dt);
+        if !(n0.is_finite() && n1.is_finite()) {
+            return None;
+        }
+        Some(SpanCubic {
+            rho0: a.rho,
+            t0: a.t,
+            dt,
+            dr,
+            m0,
+            ca: 2.0 * (a.rho - b.rho) + m0 + m1,
+            cb: 3.0 * dr - 2.0 * m0 - m1,
+            w0,
+            n0,
+            wa: 2.0 * (w0 - w1) + n0 + n1,
+            wb: 3.0 * (w1 - w0) - 2.0 * n0 - n1,
+        })
     }
-    let (w0, w1) = (a.wr, b.wr);
-    let (n0, n1) = (a.dw_dt * dt, b.dw_dt * dt);
-    if !(n0.is_finite() && n1.is_finite()) {
-        return None;
+
+    /// The point of the span at row `row`: (τ, t, w'); `None` where the
+    /// solve for τ does not settle.
+    #[inline]
+    pub(super) fn at(&self, row: f64) -> Option<(f64, f64, f64)> {
+        let (ca, cb, m0, dr) = (self.ca, self.cb, self.m0, self.dr);
+        let mut tau = ((row - self.rho0) / dr).clamp(0.0, 1.0);
+        let mut res = f64::INFINITY;
+        for _ in 0..4 {
+            let p = ((ca * tau + cb) * tau + m0) * tau + self.rho0 - row;
+            res = p.abs();
+            if res < 1e-7 {
+                break;
+            }
+            let dp = (3.0 * ca * tau + 2.0 * cb) * tau + m0;
+            if dp * dr <= 0.0 {
+                return None;
+            }
+            tau = (tau - p / dp).clamp(0.0, 1.0);
+        }
+        if res > 1e-3 {
+            let p = ((ca * tau + cb) * tau + m0) * tau + self.rho0 - row;
+            if p.abs() > 1e-3 {
+                return None;
+            }
+        }
+        let w = ((self.wa * tau + self.wb) * tau + self.n0) * tau + self.w0;
+        Some((tau, self.t0 + tau * self.dt, w))
     }
-    let wa = 2.0 * (w0 - w1) + n0 + n1;
-    let wb = 3.0 * (w1 - w0) - 2.0 * n0 - n1;
-    let w = ((wa * tau + wb) * tau + n0) * tau + w0;
-    Some((tau, a.t + tau * dt, w))
 }
 
 impl<'c, 'a> Sweep<'c, 'a> {
@@ -651,12 +683,63 @@ impl<'c, 'a> Sweep<'c, 'a> {
             let upward = b.rho < a.rho;
             let fr = &self.ctx.frame;
             let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };
-            for i in i0..=i1 {
-                let x = i as f64;
-                if self.cov.contains(x) {
-                    continue;
+            // Orthographic spans: the cubic through the two samples (set up
+            // once per span); perspective ones and walls: linear weights.
+            let cubic = if fr.persp || wall {
+                None
+            } else {
+                SpanCubic::new(a, b)
+            };
+            let cam = self.ctx.cam;
+            let dd = cam.d.dot(cam.d);
+            if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
+                // The common orthographic case, every pixel queued for its
+                // exact solve: what `pixel` and `queue` do, with the span's
+                // and the column's constants hoisted.
+                let (xs, _) = cam.pixel_to_screen(0.0, self.col);
+                let base = cam.eye + (xs * cam.pixel) * cam.r;
+                let fp = fr.pixel;
+                let span = (a.z - b.z).abs();
+                let lo_j = a.z.min(b.z) - 2.0 * fp - span;
+                let hi_j = a.z.max(b.z) + 2.0 * fp + span;
+                for i in i0..=i1 {
+                    let row = i as f64;
+                    if self.cov.contains(row) {
+                        continue;
+                    }
+                    let Some((tau, t, w)) = c.at(row) else {
+                        out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+                        continue;
+                    };
+                    let z = t * fr.d_t + w * fr.d_w;
+                    out[i as usize] = Pixel {
+                        set: true,
+                        side: topo,
+                        depth: z,
+                        n: a.n.lerp(b.n, tau).normalize_or(a.n),
+                        uv: a.uv.lerp(b.uv, tau),
+                        inten: a.inten + tau * (b.inten - a.inten),
+                        cover: 1.0,
+                    };
+                    let (_, ys) = cam.pixel_to_screen(row, self.col);
+                    self.jobs.push(super::refine::Job {
+                        slot: i as usize,
+                        o: base + (ys * cam.pixel) * cam.up,
+                        dir: cam.d,
+                        lam: z,
+                        lo: lo_j,
+                        hi: hi_j,
+                        fp,
+                    });
                 }
-                out[i as usize] = self.pixel(a, b, i as usize, topo, wall);
+            } else {
+                for i in i0..=i1 {
+                    let x = i as f64;
+                    if self.cov.contains(x) {
+                        continue;
+                    }
+                    out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+                }
             }
         }
         self.cov.add(lo, hi);
@@ -725,18 +808,23 @@ impl<'c, 'a> Sweep<'c, 'a> {
         edge_shading(ctx, a, b, wb, topo, wall, ctx.frame.eh)
     }
 
-    fn pixel(&mut self, a: &Sample, b: &Sample, i: usize, topo: i8, wall: bool) -> Pixel {
-        let fr = self.ctx.frame;
+    #[inline]
+    fn pixel(
+        &mut self,
+        a: &Sample,
+        b: &Sample,
+        cubic: &Option<SpanCubic>,
+        i: usize,
+        topo: i8,
+        wall: bool,
+    ) -> Pixel {
+        let fr = &self.ctx.frame;
         let row = i as f64;
         // Orthographic spans: the point on the cubic through the two
         // samples (fourth order); elsewhere, or where the cubic's rows are
         // not monotone (a silhouette between the samples), linear weights
         // and an exact solve.
-        let herm = if fr.persp || wall {
-            None
-        } else {
-            hermite_at(a, b, row)
-        };
+        let herm = cubic.as_ref().and_then(|c| c.at(row));
         let (z, wb) = match herm {
             Some((tau, t, w)) => (t * fr.d_t + w * fr.d_w, tau),
             None => {
@@ -804,7 +892,7 @@ impl Sweep<'_, '_> {
     /// batched exact solve, bracketed by the span a–b; false when the ray
     /// does not look into the scene.
     fn queue(&mut self, a: &Sample, b: &Sample, i: usize, o: DVec3, dir: DVec3, z: f64) -> bool {
-        let fr = self.ctx.frame;
+        let fr = &self.ctx.frame;
         let dd = dir.dot(self.ctx.cam.d);
         if dd <= 0.0 {
             return false;

@@ -214,11 +214,11 @@ pub fn render_floating_column(
             let roff = ((m * q) % aa) as f64 + 0.5;
             let roff = roff / aa as f64 - 0.5;
             let (px, st) = with_threads(opts.threads, || {
-                radial::render_radial(&ctx, (roff, off), cancel)
+                radial::render_radial(&ctx, (roff, off), None, cancel)
             })??;
             total.add(&st);
             let mut seen = vec![false; n];
-            for (k, p) in &px {
+            for (k, p) in px.iter().flatten() {
                 seen[*k] = true;
                 let c = shade(p, shading, cov);
                 let a = &mut acc[*k];
@@ -240,18 +240,25 @@ pub fn render_floating_column(
         let mut centre = Vec::new();
         if geom {
             let (px, st) = with_threads(opts.threads, || {
-                radial::render_radial(&ctx, (0.0, 0.0), cancel)
+                radial::render_radial(&ctx, (0.0, 0.0), None, cancel)
             })??;
             total.add(&st);
             centre = px;
         }
         write_aa(&mut buf, &centre, &acc, shading);
-    } else if cam.perspective {
-        let (px, st) = with_threads(opts.threads, || {
-            radial::render_radial(&ctx, (0.0, 0.0), cancel)
+    } else if cam.perspective && !cov {
+        // Each bin writes its pixels straight into the buffers.
+        let out = SharedOut::new(&mut buf, shading);
+        let (_, st) = with_threads(opts.threads, || {
+            radial::render_radial(&ctx, (0.0, 0.0), Some(&out), cancel)
         })??;
         total = st;
-        with_threads(opts.threads, || write_list(&mut buf, &px, shading, cov))?;
+    } else if cam.perspective {
+        let (px, st) = with_threads(opts.threads, || {
+            radial::render_radial(&ctx, (0.0, 0.0), None, cancel)
+        })??;
+        total = st;
+        write_list(&mut buf, &px, shading, cov);
     } else {
         with_threads(opts.threads, || -> Result<()> {
             // Columns in chunks so that only a few columns' results are in memory.
@@ -369,29 +376,21 @@ fn shade(p: &Pixel, shading: &Shading, coverage: bool) -> [f64; 4] {
     out
 }
 
-/// Write the listed pixels (row-major index, pixel); the others keep their
-/// background.
-fn write_list(buf: &mut Buffers, px: &[(usize, Pixel)], shading: &Shading, cov: bool) {
-    // Each pixel's entry (the last one, should a pixel be listed twice),
-    // then blocks of rows in parallel.
-    let w = buf.width;
-    let mut at = vec![u32::MAX; w * buf.height];
-    for (m, (k, _)) in px.iter().enumerate() {
-        at[*k] = m as u32;
-    }
-    split_rows(buf, ROWS).into_par_iter().for_each(|mut b| {
-        for (n, &m) in at[b.i0 * w..b.i1 * w].iter().enumerate() {
-            if m == u32::MAX {
-                continue;
-            }
-            let p = &px[m as usize].1;
+/// Write the listed pixels (row-major index, pixel; each pixel listed at
+/// most once); the others keep their background.
+fn write_list(buf: &mut Buffers, lists: &[Vec<(usize, Pixel)>], shading: &Shading, cov: bool) {
+    // In list order: a bin's pixels lie along one line of the screen, so
+    // the writes stay local (no pass over the whole image).
+    let h = buf.height.max(1);
+    for mut b in split_rows(buf, h) {
+        for (k, p) in lists.iter().flatten() {
             // With coverage, a partly covered pixel is blended (the others
             // are written as without coverage).
             let a = (cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set))
                 .then(|| shade(p, shading, true));
-            write_pixel(&mut b, n, p, a, shading);
+            write_pixel(&mut b, *k, p, a, shading);
         }
-    });
+    }
 }
 
 /// The step q of the sub-row permutation m ↦ q·m mod k of the perspective
@@ -417,15 +416,105 @@ fn rook_step(k: usize) -> usize {
 
 /// Write a supersampled render: colour and intensity from `acc` (every
 /// pixel), the other buffers from the listed centre pixels.
-fn write_aa(buf: &mut Buffers, centre: &[(usize, Pixel)], acc: &[[f64; 4]], shading: &Shading) {
+fn write_aa(
+    buf: &mut Buffers,
+    centre: &[Vec<(usize, Pixel)>],
+    acc: &[[f64; 4]],
+    shading: &Shading,
+) {
     let h = buf.height.max(1);
     let mut px = vec![Pixel::default(); acc.len()];
-    for (k, p) in centre {
+    for (k, p) in centre.iter().flatten() {
         px[*k] = *p;
     }
     for mut b in split_rows(buf, h) {
         for (k, a) in acc.iter().enumerate() {
             write_pixel(&mut b, k, &px[k], Some(*a), shading);
+        }
+    }
+}
+
+/// The buffers of a render as raw row-major views, written by many threads
+/// at once, each pixel by one thread only (the perspective sweep's azimuth
+/// bins partition the pixels, and a bin reveals each of its rays once).
+pub(crate) struct SharedOut<'a> {
+    n: usize,
+    rgb: *mut u8,
+    intensity: *mut f32,
+    depth: *mut f32,
+    normal: *mut f32,
+    uv: *mut f32,
+    side: *mut i8,
+    mask: *mut bool,
+    shading: &'a Shading,
+    _buf: std::marker::PhantomData<&'a mut Buffers>,
+}
+
+// SAFETY: the views are only written through `put`, whose callers write
+// every pixel from one thread only.
+unsafe impl Sync for SharedOut<'_> {}
+unsafe impl Send for SharedOut<'_> {}
+
+impl<'a> SharedOut<'a> {
+    fn new(buf: &'a mut Buffers, shading: &'a Shading) -> Self {
+        fn ptr<T>(v: &mut Option<Vec<T>>) -> *mut T {
+            v.as_mut().map_or(std::ptr::null_mut(), |v| v.as_mut_ptr())
+        }
+        SharedOut {
+            n: buf.width * buf.height,
+            rgb: ptr(&mut buf.rgb),
+            intensity: ptr(&mut buf.intensity),
+            depth: ptr(&mut buf.depth),
+            normal: ptr(&mut buf.normal),
+            uv: ptr(&mut buf.uv),
+            side: ptr(&mut buf.side),
+            mask: ptr(&mut buf.mask),
+            shading,
+            _buf: std::marker::PhantomData,
+        }
+    }
+
+    /// Write pixel k (row-major index) as [`write_pixel`] does without
+    /// supersampling; an unset pixel keeps its background.
+    ///
+    /// # Safety
+    /// No other thread reads or writes pixel k meanwhile.
+    #[inline]
+    pub(crate) unsafe fn put(&self, k: usize, p: &Pixel) {
+        assert!(k < self.n, "pixel index out of range");
+        if !p.set {
+            return;
+        }
+        // SAFETY: k < n, every buffer holds n pixels, and the caller
+        // guarantees exclusive access to pixel k.
+        unsafe {
+            if !self.rgb.is_null() {
+                let c = self.shading.colour(p.inten, p.side);
+                std::ptr::copy_nonoverlapping(c.as_ptr(), self.rgb.add(3 * k), 3);
+            }
+            if !self.intensity.is_null() {
+                *self.intensity.add(k) = p.inten as f32;
+            }
+            if !self.depth.is_null() {
+                *self.depth.add(k) = p.depth as f32;
+            }
+            if !self.normal.is_null() {
+                let v = self.normal.add(3 * k);
+                *v = p.n.x as f32;
+                *v.add(1) = p.n.y as f32;
+                *v.add(2) = p.n.z as f32;
+            }
+            if !self.uv.is_null() {
+                let v = self.uv.add(2 * k);
+                *v = p.uv.x as f32;
+                *v.add(1) = p.uv.y as f32;
+            }
+            if !self.side.is_null() {
+                *self.side.add(k) = p.side;
+            }
+            if !self.mask.is_null() {
+                *self.mask.add(k) = true;
+            }
         }
     }
 }
@@ -479,7 +568,7 @@ fn split_rows(buf: &mut Buffers, rows: usize) -> Vec<RowsMut<'_>> {
 
 /// Write pixel k (row-major index within the block); `acc` is the
 /// supersampled colour and intensity when column supersampling is on.
-#[inline]
+#[inline(always)]
 fn write_pixel(
     buf: &mut RowsMut<'_>,
     k: usize,

@@ -24,6 +24,7 @@ use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
 use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
+use super::SharedOut;
 use crate::cancel::Cancel;
 use crate::error::Result;
 use crate::surface::HeightSample;
@@ -31,6 +32,10 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
+
+/// The pixels where the surface is seen, as lists of (row-major index,
+/// pixel): one list per azimuth bin and one of the filled holes.
+pub type PixelLists = Vec<Vec<(usize, Pixel)>>;
 
 /// One pixel's ray in the radial frame: pixel index and pseudo-elevation
 /// tan(θ/2) (see [`elevation`]).
@@ -41,15 +46,19 @@ struct Ray {
 }
 
 /// Render a perspective view: the pixels where the surface is seen (each
-/// once, as (row-major index, pixel)) and the counters. Pixel (i, j) is
+/// once, in lists of (row-major index, pixel)) and the counters. Pixel (i, j) is
 /// sampled on the ray through (row i + `off`.0, column j + `off`.1): (0, 0)
 /// is the pixel centre, offsets in (−½, ½) are the sub-pixel positions of
 /// the §6.4 supersampling.
-pub fn render_radial(
+///
+/// With `direct`, each bin writes its pixels into those buffers as it
+/// finishes (and the lists come back empty); without coverage only.
+pub(crate) fn render_radial(
     ctx: &Ctx<'_>,
     off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
     cancel: &Cancel,
-) -> Result<(Vec<(usize, Pixel)>, ColumnStats)> {
+) -> Result<(PixelLists, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -103,25 +112,67 @@ pub fn render_radial(
                 *slot = (b as u32, elevation(dir.z, hl));
             }
         });
+    // The counting sort in blocks of rows, in parallel: each block's count
+    // per bin, each bin's slots (in block order, so that every bin lists
+    // its pixels in row-major order, as a serial sort does), then each
+    // block places its pixels in its own slots.
+    let n = w * h;
+    let block = (w * h.div_ceil(4 * rayon::current_num_threads().max(1))).max(1);
+    let mut slots: Vec<Vec<u32>> = per_px
+        .par_chunks(block)
+        .map(|c| {
+            let mut count = vec![0u32; nb];
+            for &(b, _) in c {
+                count[b as usize] += 1;
+            }
+            count
+        })
+        .collect();
     let mut start = vec![0usize; nb + 1];
-    for &(b, _) in &per_px {
-        start[b as usize + 1] += 1;
-    }
     for b in 0..nb {
-        start[b + 1] += start[b];
+        let mut at = start[b];
+        for s in slots.iter_mut() {
+            let c = s[b] as usize;
+            s[b] = at as u32;
+            at += c;
+        }
+        start[b + 1] = at;
     }
-    let mut fill = start.clone();
-    let mut rays = vec![Ray { k: 0, theta: 0.0 }; w * h];
-    for (k, &(b, th)) in per_px.iter().enumerate() {
-        let b = b as usize;
-        rays[fill[b]] = Ray {
-            k: k as u32,
-            theta: th,
-        };
-        fill[b] += 1;
-    }
+    let mut rays: Vec<Ray> = Vec::with_capacity(n);
+    let dst = RayOut(rays.as_mut_ptr());
+    per_px
+        .par_chunks(block)
+        .zip(slots.par_iter_mut())
+        .enumerate()
+        .for_each(|(m, (c, next))| {
+            for (q, &(b, th)) in c.iter().enumerate() {
+                let slot = &mut next[b as usize];
+                let ray = Ray {
+                    k: (m * block + q) as u32,
+                    theta: th,
+                };
+                // SAFETY: the slots of all blocks and bins partition 0..n
+                // (each block has its own run of slots in every bin).
+                unsafe { dst.put(*slot as usize, n, ray) };
+                *slot += 1;
+            }
+        });
+    // SAFETY: every slot of 0..n was written once above (the counts add up
+    // to n = w·h, the length of `per_px`).
+    unsafe { rays.set_len(n) };
     drop(per_px);
     let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
+    // Which pixels are set and their depths, compactly (for the hole
+    // filling): written by the bins (each its own pixels) when they write
+    // their pixels directly, else gathered from their lists.
+    let mut set = vec![false; w * h];
+    let mut depth = vec![f64::NAN; w * h];
+    let direct = direct.filter(|_| !ctx.opts.coverage);
+    let marks = Marks {
+        n: w * h,
+        set: set.as_mut_ptr(),
+        depth: depth.as_mut_ptr(),
+    };
     let results: Vec<Result<BinResult>> = groups
         .par_iter()
         .map(|&b| {
@@ -138,31 +189,97 @@ pub fn render_radial(
             sw.run();
             sw.solve();
             sw.finish_coverage();
+            if let Some(out) = direct {
+                for (k, p) in &sw.out {
+                    // SAFETY: the bins partition the pixels and a bin lists
+                    // each of its pixels once, so no other thread touches
+                    // pixel k.
+                    unsafe {
+                        out.put(*k, p);
+                        marks.put(*k, p);
+                    }
+                }
+                sw.out.clear();
+            }
             Ok((sw.out, sw.stats))
         })
         .collect();
-    // Which pixels are set and their depths, compactly (for the hole
-    // filling); the pixels themselves stay in one list.
-    let mut set = vec![false; w * h];
-    let mut depth = vec![f64::NAN; w * h];
     let mut stats = ColumnStats::default();
-    let mut all = Vec::with_capacity(w * h);
+    let mut all = Vec::with_capacity(results.len() + 1);
     for r in results {
         let (px, st) = r?;
         stats.add(&st);
-        for &(k, p) in &px {
-            set[k] = p.set;
-            depth[k] = p.depth;
+        if direct.is_none() {
+            for &(k, p) in &px {
+                set[k] = p.set;
+                depth[k] = p.depth;
+            }
+            all.push(px);
         }
-        all.extend(px);
     }
-    fill_holes(ctx, off, &mut set, &mut depth, &mut all, &mut stats);
+    let mut holes = Vec::new();
+    fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
+    if let Some(out) = direct {
+        for (k, p) in &holes {
+            // SAFETY: the bins are done; this thread alone writes.
+            unsafe { out.put(*k, p) };
+        }
+    } else {
+        all.push(holes);
+    }
     if ctx.opts.coverage {
         // A partly covered pixel that the hole filling set keeps only its
         // set entry.
-        all.retain(|(k, p)| p.set || !set[*k]);
+        for list in &mut all {
+            list.retain(|(k, p)| p.set || !set[*k]);
+        }
     }
     Ok((all, stats))
+}
+
+/// The destination of the parallel counting sort.
+struct RayOut(*mut Ray);
+
+// SAFETY: written only through `put`, each slot from one thread only.
+unsafe impl Sync for RayOut {}
+unsafe impl Send for RayOut {}
+
+impl RayOut {
+    /// # Safety
+    /// `slot < n`, the capacity of the destination, and no other thread
+    /// writes that slot.
+    #[inline]
+    unsafe fn put(&self, slot: usize, n: usize, ray: Ray) {
+        assert!(slot < n, "slot out of range");
+        // SAFETY: in bounds of the allocation and exclusive (see above).
+        unsafe { self.0.add(slot).write(ray) };
+    }
+}
+
+/// Raw views of the set flags and depths of [`render_radial`]'s pixels,
+/// written by the bins (each pixel by one bin only).
+struct Marks {
+    n: usize,
+    set: *mut bool,
+    depth: *mut f64,
+}
+
+// SAFETY: written only through `put`, each pixel from one thread only.
+unsafe impl Sync for Marks {}
+unsafe impl Send for Marks {}
+
+impl Marks {
+    /// # Safety
+    /// No other thread reads or writes pixel k meanwhile.
+    #[inline]
+    unsafe fn put(&self, k: usize, p: &Pixel) {
+        assert!(k < self.n, "pixel index out of range");
+        // SAFETY: k < n (the length of both arrays), access exclusive.
+        unsafe {
+            *self.set.add(k) = p.set;
+            *self.depth.add(k) = p.depth;
+        }
+    }
 }
 
 /// Screen pixels per unit of the pseudo-elevation s = tan(θ/2) (see
@@ -211,10 +328,35 @@ fn fill_holes(
         (set[k] && dd > 0.0 && depth[k].is_finite()).then(|| depth[k] / dd)
     };
     for i in 0..h {
-        for j in 0..w {
+        let mut j = 0;
+        while j < w {
+            // Eight pixels at a time, those that cannot be holes are
+            // skipped: a hole is unset with its upper or left neighbour set
+            // (the patterns below), and filling one changes nothing before it.
+            while j >= 1 && j + 8 <= w {
+                let here = bytes8(set, i * w + j);
+                let left = bytes8(set, i * w + j - 1);
+                let up = if i > 0 {
+                    bytes8(set, (i - 1) * w + j)
+                } else {
+                    0
+                };
+                if (!here & 0x0101_0101_0101_0101) & (up | left) != 0 {
+                    break;
+                }
+                j += 8;
+            }
+            if j >= w {
+                break;
+            }
             if set[i * w + j] {
+                j += 1;
                 continue;
             }
+            // Pixel (i, j), then on to the next.
+            let jj = j;
+            j += 1;
+            let j = jj;
             let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
             let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
             // The first pixel of a gap of two (its partner is searched next,
@@ -278,6 +420,13 @@ fn fill_holes(
         }
     }
     stats.refine_evals += sw.stats.refine_evals;
+}
+
+/// Eight set flags from index a, one byte each (1: set).
+#[inline]
+fn bytes8(set: &[bool], a: usize) -> u64 {
+    let b: &[bool; 8] = set[a..a + 8].try_into().expect("eight flags");
+    u64::from_le_bytes(b.map(u8::from))
 }
 
 /// The sweep's elevation coordinate of the direction (h, z) (horizontal
@@ -451,6 +600,38 @@ pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
         -r
     } else {
         r
+    }
+}
+
+/// What the pixels of one span share: the samples' points and distances
+/// from the eye, the side revealed, and the span's cubic (none for walls).
+struct SpanConst {
+    pa: DVec3,
+    pb: DVec3,
+    la: f64,
+    lb: f64,
+    topo: i8,
+    cubic: Option<super::column::SpanCubic>,
+}
+
+impl SpanConst {
+    #[inline]
+    fn new(ctx: &Ctx<'_>, a: &Sample, b: &Sample, wall: bool) -> SpanConst {
+        let e = ctx.cam.eye;
+        let (pa, pb) = (a.world(&ctx.frame), b.world(&ctx.frame));
+        SpanConst {
+            pa,
+            pb,
+            la: (pa - e).length(),
+            lb: (pb - e).length(),
+            // Upwards (θ increasing) reveals the upper side, in world terms.
+            topo: if b.rho > a.rho { 1 } else { -1 },
+            cubic: if wall {
+                None
+            } else {
+                super::column::SpanCubic::new(a, b)
+            },
+        }
     }
 }
 
@@ -991,13 +1172,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             k += 1;
         }
         self.cursor = k;
-        while k < self.rays.len() && self.rays[k].theta * self.ppr <= hi {
-            let th = self.rays[k].theta * self.ppr;
+        let sp = SpanConst::new(self.ctx, a, b, wall);
+        while k < self.rays.len() && self.rays[k].theta * ppr <= hi {
+            let th = self.rays[k].theta * ppr;
             if !self.done[k] && !self.cov.contains(th) {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
-                let px = self.pixel(a, b, dir, th, wall);
+                let px = self.pixel(a, b, &sp, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }
             k += 1;
@@ -1005,21 +1187,25 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.cov.add(lo, hi);
     }
 
-    fn pixel(&mut self, a: &Sample, b: &Sample, dir: DVec3, th: f64, wall: bool) -> Pixel {
+    #[inline]
+    fn pixel(
+        &mut self,
+        a: &Sample,
+        b: &Sample,
+        sp: &SpanConst,
+        dir: DVec3,
+        th: f64,
+        wall: bool,
+    ) -> Pixel {
         let ctx = self.ctx;
         let cam = ctx.cam;
         let e = cam.eye;
-        let pa = a.world(&ctx.frame);
-        let pb = b.world(&ctx.frame);
+        let (pa, pb) = (sp.pa, sp.pb);
         // The point of the bin's plane at elevation θ: on the cubic through
         // the two samples (horizontal distance and height with their exact
         // slopes), or, where that cubic folds over (a silhouette between the
         // samples), on the chord with an exact solve to follow.
-        let herm = if wall {
-            None
-        } else {
-            super::column::hermite_at(a, b, th)
-        };
+        let herm = sp.cubic.as_ref().and_then(|c| c.at(th));
         let (tau, p) = match herm {
             Some((tau, r, w)) => {
                 let h = DVec2::new(e.x, e.y) + r * self.eh;
@@ -1051,8 +1237,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
         }
         let q0 = e + lam0 * dir;
-        // Upwards (θ increasing) reveals the upper side, in world terms.
-        let topo: i8 = if b.rho > a.rho { 1 } else { -1 };
+        let topo = sp.topo;
         let mut px = Pixel {
             set: true,
             side: topo,
@@ -1066,8 +1251,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
-            let la = (pa - e).length();
-            let lb = (pb - e).length();
+            let (la, lb) = (sp.la, sp.lb);
             let span = (la - lb).abs();
             self.jobs.push(super::refine::Job {
                 slot: self.out.len(),

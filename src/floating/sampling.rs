@@ -308,12 +308,17 @@ impl<'a> Sampler<'a> {
     /// Points outside the domain are `None` and not evaluated.
     pub fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
         debug_assert!(self.line.kappa == 0.0);
-        let fr = *self.frame;
+        let fr = self.frame;
         let s = self.line.s0;
         scratch.clear();
+        // The domain with its rounding margin (as in `inside`), once.
+        let d = &fr.domain;
+        let eu = 1e-12 * (d.u1 - d.u0).abs().max(d.u0.abs().max(d.u1.abs()));
+        let ev = 1e-12 * (d.v1 - d.v0).abs().max(d.v0.abs().max(d.v1.abs()));
+        let (u0, u1, v0, v1) = (d.u0 - eu, d.u1 + eu, d.v0 - ev, d.v1 + ev);
         for (k, &t) in ts.iter().enumerate() {
             let uv = fr.uv(s + self.line.a * t, t);
-            if self.inside(uv) {
+            if uv.x >= u0 && uv.x <= u1 && uv.y >= v0 && uv.y <= v1 {
                 scratch.u.push(uv.x);
                 scratch.v.push(uv.y);
                 scratch.idx.push(k);
