@@ -182,6 +182,27 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
     }
 }
 
+/// `out`, sorted by `k1` ascending, sorted as [`sort_keys`] does: each
+/// run of equal `k1` by `k2` descending, then index ascending.
+pub fn sort_ties(k1: &[f64], k2: &[f64], out: &mut [u32]) {
+    let cmp = |i: &u32, j: &u32| {
+        let (i, j) = (*i as usize, *j as usize);
+        k2[j].total_cmp(&k2[i]).then(i.cmp(&j))
+    };
+    let mut start = 0;
+    while start < out.len() {
+        let key = k1[out[start] as usize].to_bits();
+        let mut end = start + 1;
+        while end < out.len() && k1[out[end] as usize].to_bits() == key {
+            end += 1;
+        }
+        if end - start > 1 {
+            out[start..end].sort_unstable_by(cmp);
+        }
+        start = end;
+    }
+}
+
 /// Ranks per leaf block: the lowest levels of the tree (right subtrees of at
 /// most `BLOCK`/2 ranks) keep no hull. Inside a block the covering sets met
 /// from rank k are the block's processed points of rank > k, whose maximum is
@@ -294,6 +315,10 @@ pub struct Work {
     kin: Vec<u8>,
     dst: Vec<Rec>,
     hull: Hull,
+    /// The terrain (its key array and point count) and b⊥ vector of the
+    /// sector these buffers last computed: `b` and `by_b` still hold its
+    /// b⊥ keys and order.
+    last: Option<(usize, usize, u64, u64)>,
 }
 
 /// The best of `best` (`ABSENT`: none) and `c` for `p` (exact; ties to the
@@ -425,8 +450,20 @@ pub fn sector_with(
         return Ok(());
     }
     let ids = std::mem::take(&mut w.ids);
-    w.a.clear();
-    w.a.extend(ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])));
+    // a⊥ of sector i + 1 is b⊥ of sector i, bit for bit (the shared border
+    // ray): after sector i this thread holds those keys and their order,
+    // which is the first-index order here except inside runs of equal keys
+    // (ties go by the other key, re-sorted by `sort_ties`).
+    let this = |v: (f64, f64)| (t.kx.as_ptr() as usize, n, v.0.to_bits(), v.1.to_bits());
+    let follows = w.last == Some(this(f.aperp));
+    w.last = None;
+    if follows {
+        std::mem::swap(&mut w.a, &mut w.b);
+        std::mem::swap(&mut w.order, &mut w.by_b);
+    } else {
+        w.a.clear();
+        w.a.extend(ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])));
+    }
     w.b.clear();
     w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
     w.pr.clear();
@@ -435,9 +472,14 @@ pub fn sector_with(
             .map(|&q| project(f, t.x[q], t.y[q], t.z[q], o.curvature)),
     );
     // First index: a⊥ ascending, ties b⊥ descending, then input order.
-    sort_keys(&w.a, &w.b, &mut w.order, &mut w.count);
+    if follows {
+        sort_ties(&w.a, &w.b, &mut w.order);
+    } else {
+        sort_keys(&w.a, &w.b, &mut w.order, &mut w.count);
+    }
     // Second index: b⊥ ascending, ties a⊥ descending, then input order.
     sort_keys(&w.b, &w.a, &mut w.by_b, &mut w.count);
+    w.last = Some(this(f.bperp));
     // b⊥ rank (leaf) of every point
     w.rank.clear();
     w.rank.resize(n, 0);
@@ -500,8 +542,9 @@ pub fn sector_with(
     }
     // w.src is now in a⊥ order: w.src[s].a == s.
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));
+    let dense = n == t.len(); // every point has data: ids[i] == i
     for (r, &i) in w.src.iter().zip(&w.order) {
-        let i = ids[i as usize];
+        let i = if dense { i as usize } else { ids[i as usize] };
         let best = match &limit {
             Some(lim) if !r.best.w.is_nan() && !lim.surely_within(r.p, r.best) => {
                 lim.search(i, r.p)

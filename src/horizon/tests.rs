@@ -312,3 +312,40 @@ fn stewart_max_distance_equals_brute() {
         }
     }
 }
+
+#[test]
+fn sort_ties_finishes_an_order_on_the_same_first_key() {
+    // An order sorted by k1 with other tie rules (as the previous sector
+    // leaves it) becomes sort_keys' order.
+    let mut r = rng(29);
+    let mut count = Vec::new();
+    for n in [1usize, 2, 7, 1000] {
+        for distinct in [3u64, 1 << 40] {
+            let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
+            let k2: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 - 7.0).collect();
+            let k3: Vec<f64> = (0..n).map(|_| (r() % 5) as f64).collect();
+            let mut out = Vec::new();
+            stewart::sort_keys(&k1, &k3, &mut out, &mut count);
+            stewart::sort_ties(&k1, &k2, &mut out);
+            let mut want = Vec::new();
+            stewart::sort_keys(&k1, &k2, &mut want, &mut count);
+            assert_eq!(out, want, "n {n} distinct {distinct}");
+        }
+    }
+}
+
+#[test]
+fn stewart_equals_brute_grid_consecutive_sectors() {
+    // 2304 points (7 merge levels above the leaf blocks), integer heights on
+    // a grid (exact ties on the 45° borders), consecutive sectors on one
+    // thread (the first-index order carried over from the previous sector).
+    let mut r = rng(31);
+    let side = 48;
+    let z: Vec<f64> = (0..side * side).map(|_| (r() % 9) as f64).collect();
+    let t = Terrain::from_grid(z, side, side, 1.0, 1.0).unwrap();
+    for s in [8usize, 16] {
+        let a = run(&t, &Options::new(s, Method::Brute));
+        let b = run(&t, &Options::new(s, Method::Stewart));
+        assert!(same_bits(&a, &b), "s {s}");
+    }
+}
