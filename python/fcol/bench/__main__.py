@@ -36,11 +36,12 @@ def main(argv: list[str] | None = None) -> int:
         cols = list(dict.fromkeys(k for r in rows for k in r))
         fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)  # noqa: E731
         widths = {c: max(len(c), *(len(fmt(r.get(c, ""))) for r in rows)) for c in cols}
+        lines = ["  ".join(c.ljust(widths[c]) for c in cols), "  ".join("-" * widths[c] for c in cols)]
+        lines += ["  ".join(fmt(r.get(c, "")).ljust(widths[c]) for c in cols) for r in rows]
         print(f"\n== {name} ==")
-        print("  ".join(c.ljust(widths[c]) for c in cols))
-        print("  ".join("-" * widths[c] for c in cols))
-        for r in rows:
-            print("  ".join(fmt(r.get(c, "")).ljust(widths[c]) for c in cols))
+        print("\n".join(lines))
+        # the same table in the output folder, beside the section's plots
+        (out / f"{name}.txt").write_text("\n".join(lines) + "\n")
     return 0
 
 
