@@ -791,12 +791,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// for a pixel whose centre it does not cover (no exact solve).
     fn edge_pixel(&self, a: &Sample, b: &Sample, x: f64, topo: i8, wall: bool) -> Pixel {
         let ctx = self.ctx;
-        let dr = b.rho - a.rho;
-        let tau = if dr != 0.0 {
-            ((x - a.rho) / dr).clamp(0.0, 1.0)
-        } else {
-            0.5
-        };
+        let tau = chord_tau(a, b, x);
         let wb = if ctx.frame.persp {
             let iz = (1.0 - tau) / a.z + tau / b.z;
             tau / b.z / iz
@@ -828,12 +823,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let (z, wb) = match herm {
             Some((tau, t, w)) => (t * fr.d_t + w * fr.d_w, tau),
             None => {
-                let dr = b.rho - a.rho;
-                let tau = if dr != 0.0 {
-                    ((row - a.rho) / dr).clamp(0.0, 1.0)
-                } else {
-                    0.5
-                };
+                let tau = chord_tau(a, b, row);
                 // Perspective-correct weights (1/z is linear on the screen).
                 if fr.persp {
                     let iz = (1.0 - tau) / a.z + tau / b.z;
@@ -910,6 +900,18 @@ impl Sweep<'_, '_> {
             fp,
         });
         true
+    }
+}
+
+/// Where row (or elevation) `x` lies between samples `a` and `b` along
+/// their chord: 0 at a, 1 at b, clamped; ½ when both have the same one.
+#[inline]
+pub(super) fn chord_tau(a: &Sample, b: &Sample, x: f64) -> f64 {
+    let dr = b.rho - a.rho;
+    if dr != 0.0 {
+        ((x - a.rho) / dr).clamp(0.0, 1.0)
+    } else {
+        0.5
     }
 }
 

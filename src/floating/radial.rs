@@ -844,12 +844,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// `th`, for a ray whose centre it does not cover (no exact solve).
     fn edge_pixel(&self, a: &Sample, b: &Sample, th: f64, topo: i8, wall: bool) -> Pixel {
         let ctx = self.ctx;
-        let dr = b.rho - a.rho;
-        let tau = if dr != 0.0 {
-            ((th - a.rho) / dr).clamp(0.0, 1.0)
-        } else {
-            0.5
-        };
+        let tau = super::column::chord_tau(a, b, th);
         super::column::edge_shading(ctx, a, b, tau, topo, wall, self.eh)
     }
 
@@ -1212,12 +1207,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 (tau, DVec3::new(h.x, h.y, w + e.z))
             }
             None => {
-                let dr = b.rho - a.rho;
-                let tau = if dr != 0.0 {
-                    ((th - a.rho) / dr).clamp(0.0, 1.0)
-                } else {
-                    0.5
-                };
+                let tau = super::column::chord_tau(a, b, th);
                 (tau, pa.lerp(pb, tau))
             }
         };
@@ -1305,19 +1295,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let outside = side as f64;
         // The part of the ray over the domain (a ray that grazes a corner
         // of it spends only a few footprints there).
-        let (mut l_in, mut l_out) = (0.0f64, f64::INFINITY);
-        for (oc, dc, a, b) in [(e.x, dir.x, dom.u0, dom.u1), (e.y, dir.y, dom.v0, dom.v1)] {
-            if dc == 0.0 {
-                if oc < a || oc > b {
-                    return None;
-                }
-            } else {
-                let (p, q) = ((a - oc) / dc, (b - oc) / dc);
-                l_in = l_in.max(p.min(q));
-                l_out = l_out.min(p.max(q));
-            }
-        }
-        // Just inside the edges (rounding).
+        let (l_in, l_out) =
+            super::sampling::domain_range(&dom, DVec2::new(e.x, e.y), DVec2::new(dir.x, dir.y))?;
+        let l_in = l_in.max(0.0); // forward along the ray only
+                                  // Just inside the edges (rounding).
         let pad = 1e-9 * fp;
         let (l_in, l_out) = (l_in + pad, l_out - pad);
         let hi = hi.min(l_out);

@@ -161,33 +161,12 @@ impl Frame {
     /// The s-interval of the domain on the line t = const (empty: None).
     pub fn domain_s_range(&self, t: f64) -> Option<(f64, f64)> {
         // (u, v) = o + s·rh + t·eh must satisfy the four bounds.
-        self.domain_range(self.uv(0.0, t), self.rh)
+        domain_range(&self.domain, self.uv(0.0, t), self.rh)
     }
 
     /// The t-interval where the line s = s0 crosses the domain.
     pub fn domain_t_range_at_s(&self, s: f64) -> Option<(f64, f64)> {
-        self.domain_range(self.uv(s, 0.0), self.eh)
-    }
-
-    /// The interval of x where base + x·dir lies in the domain (empty: None).
-    fn domain_range(&self, base: DVec2, dir: DVec2) -> Option<(f64, f64)> {
-        let mut lo = f64::NEG_INFINITY;
-        let mut hi = f64::INFINITY;
-        for (b, dir, a0, a1) in [
-            (base.x, dir.x, self.domain.u0, self.domain.u1),
-            (base.y, dir.y, self.domain.v0, self.domain.v1),
-        ] {
-            if dir.abs() < 1e-300 {
-                if b < a0 || b > a1 {
-                    return None;
-                }
-            } else {
-                let (p, q) = ((a0 - b) / dir, (a1 - b) / dir);
-                lo = lo.max(p.min(q));
-                hi = hi.min(p.max(q));
-            }
-        }
-        (lo <= hi).then_some((lo, hi))
+        domain_range(&self.domain, self.uv(s, 0.0), self.eh)
     }
 
     /// The t-range of the whole domain.
@@ -202,6 +181,27 @@ impl Frame {
         }
         (lo, hi)
     }
+}
+
+/// The interval of x where base + x·dir lies in the domain (empty: None).
+pub(super) fn domain_range(domain: &Domain, base: DVec2, dir: DVec2) -> Option<(f64, f64)> {
+    let mut lo = f64::NEG_INFINITY;
+    let mut hi = f64::INFINITY;
+    for (b, dir, a0, a1) in [
+        (base.x, dir.x, domain.u0, domain.u1),
+        (base.y, dir.y, domain.v0, domain.v1),
+    ] {
+        if dir.abs() < 1e-300 {
+            if b < a0 || b > a1 {
+                return None;
+            }
+        } else {
+            let (p, q) = ((a0 - b) / dir, (a1 - b) / dir);
+            lo = lo.max(p.min(q));
+            hi = hi.min(p.max(q));
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
 }
 
 /// A pixel column's plane: s = s0 + a·t + κ·w'.

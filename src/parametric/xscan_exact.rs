@@ -155,6 +155,15 @@ pub struct XScan<'a> {
     touched: std::cell::Cell<(usize, usize)>,
 }
 
+/// The outcome of one step of a pixel solve.
+enum PixelStep {
+    /// Converged or stalled; whether the residual is within the tolerance.
+    Done(bool),
+    Fail,
+    /// The next (u, v).
+    Next(f64, f64),
+}
+
 impl<'a> XScan<'a> {
     pub fn new(sc: &'a Screen<'a>, width: usize) -> Self {
         let d = sc.dom;
@@ -234,31 +243,49 @@ impl<'a> XScan<'a> {
         let (mut u, mut v) = (u.clamp(d.u0, d.u1), v.clamp(d.v0, d.v1));
         for _ in 0..12 {
             let s = self.ev(u, v)?;
-            let f = s.y - ys;
-            let g = s.x - xp;
-            let det = s.jac();
-            // [x_u x_v; y_u y_v] (du, dv) = −(g, f)
-            let du = -(g * s.yv - s.xv * f) / det;
-            let dv = -(s.xu * f - s.yu * g) / det;
-            if !(du.is_finite() && dv.is_finite()) {
-                return None;
+            match self.pixel_step(&s, u, v, ys, xp, tol) {
+                PixelStep::Done(ok) => return ok.then_some(s),
+                PixelStep::Fail => return None,
+                PixelStep::Next(nu, nv) => {
+                    *iters += 1;
+                    if (nu, nv) == (u, v) {
+                        return None;
+                    }
+                    (u, v) = (nu, nv);
+                }
             }
-            if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
-                let ok = tol.max(1e-6);
-                return (f.abs() < ok && g.abs() < ok).then_some(s);
-            }
-            if du.abs().max(dv.abs()) > 0.25 * self.ext {
-                return None;
-            }
-            *iters += 1;
-            let (nu, nv) = ((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1));
-            if (nu, nv) == (u, v) {
-                return None;
-            }
-            u = nu;
-            v = nv;
         }
         None
+    }
+
+    /// One step of the pixel solve at sample `s` of (u, v): bivariate
+    /// Newton on (y − ys, x − xp) (§3.3), clamped to the domain.
+    #[inline]
+    fn pixel_step(
+        &self,
+        s: &ScreenSample,
+        u: f64,
+        v: f64,
+        ys: f64,
+        xp: f64,
+        tol: f64,
+    ) -> PixelStep {
+        let d = self.sc.dom;
+        let (f, g, det) = (s.y - ys, s.x - xp, s.jac());
+        // [x_u x_v; y_u y_v] (du, dv) = −(g, f)
+        let du = -(g * s.yv - s.xv * f) / det;
+        let dv = -(s.xu * f - s.yu * g) / det;
+        if !(du.is_finite() && dv.is_finite()) {
+            return PixelStep::Fail;
+        }
+        if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
+            let ok = tol.max(1e-6);
+            return PixelStep::Done(f.abs() < ok && g.abs() < ok);
+        }
+        if du.abs().max(dv.abs()) > 0.25 * self.ext {
+            return PixelStep::Fail;
+        }
+        PixelStep::Next((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1))
     }
 
     /// [`newton_tol`](Self::newton_tol) for many (u, v, x_p) of scan line
@@ -280,26 +307,19 @@ impl<'a> XScan<'a> {
             .collect();
         self.sc
             .lockstep(active, 12, self.first_order, |_, s, u, v, i| {
-                let xp = starts[i].2;
-                let (f, g, det) = (s.y - ys, s.x - xp, s.jac());
-                let du = -(g * s.yv - s.xv * f) / det;
-                let dv = -(s.xu * f - s.yu * g) / det;
-                if !(du.is_finite() && dv.is_finite()) {
-                    return None;
-                }
-                if (f.abs() < tol && g.abs() < tol) || du.abs().max(dv.abs()) <= 1e-14 * self.ext {
-                    let ok = tol.max(1e-6);
-                    if f.abs() < ok && g.abs() < ok {
-                        out[i] = Some(*s);
+                match self.pixel_step(s, u, v, ys, starts[i].2, tol) {
+                    PixelStep::Done(ok) => {
+                        if ok {
+                            out[i] = Some(*s);
+                        }
+                        None
                     }
-                    return None;
+                    PixelStep::Fail => None,
+                    PixelStep::Next(nu, nv) => {
+                        *iters += 1;
+                        ((nu, nv) != (u, v)).then_some((nu, nv, i))
+                    }
                 }
-                if du.abs().max(dv.abs()) > 0.25 * self.ext {
-                    return None;
-                }
-                *iters += 1;
-                let (nu, nv) = ((u + du).clamp(d.u0, d.u1), (v + dv).clamp(d.v0, d.v1));
-                ((nu, nv) != (u, v)).then_some((nu, nv, i))
             });
         out
     }
