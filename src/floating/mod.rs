@@ -482,40 +482,31 @@ impl<'a> SharedOut<'a> {
     #[inline]
     pub(crate) unsafe fn put(&self, k: usize, p: &Pixel) {
         assert!(k < self.n, "pixel index out of range");
-        if !p.set {
-            return;
+        /// Pixel k of a buffer of `ch` values per pixel, as a slice.
+        ///
+        /// # Safety
+        /// `ptr` (if not null) holds more than k pixels, pixel k used by
+        /// this thread only.
+        unsafe fn one<'b, T>(ptr: *mut T, k: usize, ch: usize) -> Option<&'b mut [T]> {
+            // SAFETY: see above.
+            (!ptr.is_null()).then(|| unsafe { std::slice::from_raw_parts_mut(ptr.add(ch * k), ch) })
         }
         // SAFETY: k < n, every buffer holds n pixels, and the caller
         // guarantees exclusive access to pixel k.
-        unsafe {
-            if !self.rgb.is_null() {
-                let c = self.shading.colour(p.inten, p.side);
-                std::ptr::copy_nonoverlapping(c.as_ptr(), self.rgb.add(3 * k), 3);
+        let mut px = unsafe {
+            RowsMut {
+                i0: 0,
+                i1: 1,
+                rgb: one(self.rgb, k, 3),
+                intensity: one(self.intensity, k, 1),
+                depth: one(self.depth, k, 1),
+                normal: one(self.normal, k, 3),
+                uv: one(self.uv, k, 2),
+                side: one(self.side, k, 1),
+                mask: one(self.mask, k, 1),
             }
-            if !self.intensity.is_null() {
-                *self.intensity.add(k) = p.inten as f32;
-            }
-            if !self.depth.is_null() {
-                *self.depth.add(k) = p.depth as f32;
-            }
-            if !self.normal.is_null() {
-                let v = self.normal.add(3 * k);
-                *v = p.n.x as f32;
-                *v.add(1) = p.n.y as f32;
-                *v.add(2) = p.n.z as f32;
-            }
-            if !self.uv.is_null() {
-                let v = self.uv.add(2 * k);
-                *v = p.uv.x as f32;
-                *v.add(1) = p.uv.y as f32;
-            }
-            if !self.side.is_null() {
-                *self.side.add(k) = p.side;
-            }
-            if !self.mask.is_null() {
-                *self.mask.add(k) = true;
-            }
-        }
+        };
+        write_pixel(&mut px, 0, p, None, self.shading);
     }
 }
 

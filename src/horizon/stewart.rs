@@ -317,7 +317,9 @@ pub struct Work {
     hull: Hull,
     /// The terrain (its key array and point count) and b⊥ vector of the
     /// sector these buffers last computed: `b` and `by_b` still hold its
-    /// b⊥ keys and order.
+    /// b⊥ keys and order. Cleared by [`release`] at the end of every
+    /// computation, so the array's address is only ever compared within
+    /// one terrain's computation.
     last: Option<(usize, usize, u64, u64)>,
 }
 
