@@ -1,7 +1,7 @@
 //! Timing harness for the floating column (no Python needed), on the bench
 //! surface 3 sin(u cos v) over [−5, 5]²:
 //! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
-//! with keys refine, step, max_step, tol (the options of `fcol.render`).
+//! with keys refine, step, max_step, outs (comma-separated buffers) (the options of `fcol.render`).
 
 use _fcol::camera::Projection;
 use _fcol::floating::{render_floating_column, FloatingOptions};
@@ -18,12 +18,14 @@ fn main() {
     let num = |k: usize, d: usize| a.get(k).and_then(|v| v.parse().ok()).unwrap_or(d);
     let (w, h, rep) = (num(2, 480), num(3, 477), num(4, 5));
     let mut o = FloatingOptions::default();
+    let mut names = vec!["rgb".to_string(), "depth".into(), "normal".into(), "mask".into()];
     for kv in a.iter().skip(5) {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
             "refine" => o.refine = v == "1" || v == "true",
             "step" => o.step = Some(v.parse().unwrap()),
             "max_step" => o.max_step = Some(v.parse().unwrap()),
+            "outs" => names = v.split(',').map(str::to_string).collect(),
             _ => panic!("unknown option {k}"),
         }
     }
@@ -47,7 +49,7 @@ fn main() {
     };
     let dom = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
     let f = ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, dom).unwrap();
-    let outs = Outputs::from_names(&["rgb", "depth", "normal", "mask"]).unwrap();
+    let outs = Outputs::from_names(&names.iter().map(String::as_str).collect::<Vec<_>>()).unwrap();
     let sh = Shading::default();
     let mut times = Vec::new();
     let mut samples = 0;
