@@ -1,10 +1,12 @@
 //! Timing harness for the floating column (no Python needed), on the bench
 //! surface 3 sin(u cos v) over [−5, 5]²:
 //! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
-//! with keys refine, step, max_step, outs (comma-separated buffers) (the options of `fcol.render`).
+//! with keys refine, step, max_step, outs (comma-separated buffers) (the options of `fcol.render`),
+//! and hash=1 to print a digest of the buffers (to compare outputs across builds).
 
 use _fcol::camera::Projection;
 use _fcol::floating::{render_floating_column, FloatingOptions};
+use _fcol::image::Buffers;
 use _fcol::shade::Shading;
 use _fcol::source::ExprHeight;
 use _fcol::surface::Domain;
@@ -18,7 +20,13 @@ fn main() {
     let num = |k: usize, d: usize| a.get(k).and_then(|v| v.parse().ok()).unwrap_or(d);
     let (w, h, rep) = (num(2, 480), num(3, 477), num(4, 5));
     let mut o = FloatingOptions::default();
-    let mut names = vec!["rgb".to_string(), "depth".into(), "normal".into(), "mask".into()];
+    let mut want_hash = false;
+    let mut names = vec![
+        "rgb".to_string(),
+        "depth".into(),
+        "normal".into(),
+        "mask".into(),
+    ];
     for kv in a.iter().skip(5) {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {
@@ -26,6 +34,7 @@ fn main() {
             "step" => o.step = Some(v.parse().unwrap()),
             "max_step" => o.max_step = Some(v.parse().unwrap()),
             "outs" => names = v.split(',').map(str::to_string).collect(),
+            "hash" => want_hash = v == "1" || v == "true",
             _ => panic!("unknown option {k}"),
         }
     }
@@ -53,16 +62,59 @@ fn main() {
     let sh = Shading::default();
     let mut times = Vec::new();
     let mut samples = 0;
+    let mut hash = 0;
     for _ in 0..rep {
         let t0 = Instant::now();
         let b = render_floating_column(&f, &view, w, h, &outs, &sh, &o, &Cancel::new()).unwrap();
         times.push(t0.elapsed().as_secs_f64());
         samples = b.samples;
+        if want_hash {
+            hash = digest(&b);
+        }
     }
     times.sort_by(f64::total_cmp);
     println!(
-        "{which} {w}x{h}: median {:.2} ms, min {:.2} ms, samples {samples}",
+        "{which} {w}x{h}: median {:.2} ms, min {:.2} ms, samples {samples}{}",
         1e3 * times[times.len() / 2],
-        1e3 * times[0]
+        1e3 * times[0],
+        if want_hash {
+            format!(", buffers {hash:016x}")
+        } else {
+            String::new()
+        }
     );
+}
+
+/// FNV-1a of the bytes of every buffer (to compare outputs across builds).
+fn digest(b: &Buffers) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |bytes: &[u8]| {
+        for &x in bytes {
+            h = (h ^ x as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    let f32s = |v: &Option<Vec<f32>>| -> Vec<u8> {
+        v.iter()
+            .flatten()
+            .flat_map(|x| x.to_bits().to_le_bytes())
+            .collect()
+    };
+    eat(b.rgb.as_deref().unwrap_or(&[]));
+    eat(&f32s(&b.intensity));
+    eat(&f32s(&b.depth));
+    eat(&f32s(&b.normal));
+    eat(&f32s(&b.uv));
+    eat(&b
+        .side
+        .iter()
+        .flatten()
+        .map(|&x| x as u8)
+        .collect::<Vec<_>>());
+    eat(&b
+        .mask
+        .iter()
+        .flatten()
+        .map(|&x| x as u8)
+        .collect::<Vec<_>>());
+    h
 }

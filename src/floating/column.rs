@@ -158,8 +158,32 @@ struct Sweep<'c, 'a> {
     fine: Option<Coverage>,
 }
 
+/// Buffers a worker reuses from column to column.
+#[derive(Default)]
+pub struct ColumnScratch {
+    /// The column's pixels, and those of a sub-column and the accumulated
+    /// shading of the sub-columns (antialiasing), for the caller.
+    pub centre: Vec<Pixel>,
+    pub sub: Vec<Pixel>,
+    pub acc: Vec<[f64; 4]>,
+    jobs: Vec<super::refine::Job>,
+    ahead: Box<Ahead>,
+    batch: Vec<Option<Raw>>,
+    solve: super::refine::SolveScratch,
+}
+
 /// Render one (possibly fractional) column `col` into `out` (length H).
 pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats {
+    render_column_with(ctx, col, out, &mut ColumnScratch::default())
+}
+
+/// [`render_column`] with reused buffers.
+pub fn render_column_with(
+    ctx: &Ctx<'_>,
+    col: f64,
+    out: &mut [Pixel],
+    sc: &mut ColumnScratch,
+) -> ColumnStats {
     let fr = ctx.frame;
     let xpix = fr.xpix(col);
     let line = fr.column(xpix);
@@ -181,9 +205,17 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
         cov: Coverage::default(),
         h: ctx.cam.height,
         stats: ColumnStats::default(),
-        jobs: Vec::with_capacity(if ctx.fallback { ctx.cam.height } else { 0 }),
-        ahead: (line.kappa == 0.0).then(Box::default),
-        batch: Vec::new(),
+        jobs: {
+            let mut j = std::mem::take(&mut sc.jobs);
+            j.clear();
+            j
+        },
+        ahead: (line.kappa == 0.0).then(|| {
+            let mut a = std::mem::take(&mut sc.ahead);
+            a.reset();
+            a
+        }),
+        batch: std::mem::take(&mut sc.batch),
         fine: ctx.opts.coverage.then(Coverage::default),
     };
     if !fr.persp {
@@ -204,10 +236,14 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
             sw.sweep(tmax.min(0.0), -1.0, tmax.min(0.0) - tmin, out);
         }
     }
+    if let Some(a) = sw.ahead.take() {
+        sc.ahead = a;
+    }
+    sc.batch = std::mem::take(&mut sw.batch);
     if !sw.jobs.is_empty() {
-        let (failed, evals) = super::refine::solve(ctx, &sw.jobs, out);
+        let (failed, evals) = super::refine::solve_with(ctx, &sw.jobs, out, &mut sc.solve);
         if ctx.opts.shading == ShadingMode::Normal {
-            for &slot in &failed {
+            for &slot in failed {
                 let (_, dir) = ctx.cam.ray(slot as f64, col);
                 out[slot].inten = ctx.shading.intensity(out[slot].n, -dir);
             }
@@ -230,6 +266,7 @@ pub fn render_column(ctx: &Ctx<'_>, col: f64, out: &mut [Pixel]) -> ColumnStats 
     }
     sw.stats.sweep_evals = sw.sampler.evals;
     sw.stats.folds = sw.sampler.folds;
+    sc.jobs = std::mem::take(&mut sw.jobs);
     sw.stats
 }
 

@@ -154,8 +154,6 @@ pub(crate) fn with_threads<T: Send>(
     }
 }
 
-type ColumnResult = Result<(Vec<Pixel>, Vec<[f64; 4]>, ColumnStats)>;
-
 /// Render w = f(u, v) by the floating column (§4.2, A.2).
 #[allow(clippy::too_many_arguments)]
 pub fn render_floating_column(
@@ -260,78 +258,21 @@ pub fn render_floating_column(
         total = st;
         write_list(&mut buf, &px, shading, cov);
     } else {
-        with_threads(opts.threads, || -> Result<()> {
-            // Columns in chunks so that only a few columns' results are in memory.
-            let chunk = 256usize;
-            let mut j0 = 0;
-            while j0 < width {
-                cancel.check()?;
-                let j1 = (j0 + chunk).min(width);
-                let cols: Vec<ColumnResult> = (j0..j1)
-                    .into_par_iter()
-                    .map(|j| {
-                        cancel.check()?;
-                        let mut st = ColumnStats::default();
-                        let mut centre = vec![Pixel::default(); height];
-                        // Shading accumulated over sub-columns: (r, g, b, I).
-                        let mut acc = Vec::new();
-                        if shade_aa {
-                            acc = vec![[0.0; 4]; height];
-                            let mut sub = vec![Pixel::default(); height];
-                            for m in 0..aa {
-                                let off = (m as f64 + 0.5) / aa as f64 - 0.5;
-                                sub.iter_mut().for_each(|p| *p = Pixel::default());
-                                st.add(&column::render_column(&ctx, j as f64 + off, &mut sub));
-                                for (a, p) in acc.iter_mut().zip(&sub) {
-                                    let c = shade(p, shading, cov);
-                                    for k in 0..3 {
-                                        a[k] += c[k] / aa as f64;
-                                    }
-                                    if c[3].is_finite() {
-                                        a[3] += c[3] / aa as f64;
-                                    }
-                                }
-                            }
-                        }
-                        if !shade_aa || geom {
-                            st.add(&column::render_column(&ctx, j as f64, &mut centre));
-                        }
-                        Ok((centre, acc, st))
-                    })
-                    .collect();
-                let mut done = Vec::with_capacity(cols.len());
-                for r in cols {
-                    let (px, acc, st) = r?;
-                    total.add(&st);
-                    done.push((px, acc));
-                }
-                // Row by row, so that the writes into the row-major buffers
-                // are contiguous (blocks of rows in parallel).
-                split_rows(&mut buf, ROWS)
-                    .into_par_iter()
-                    .for_each(|mut b| {
-                        for i in b.i0..b.i1 {
-                            for (k, (px, acc)) in done.iter().enumerate() {
-                                let a = if shade_aa {
-                                    Some(acc[i])
-                                } else if cov
-                                    && px[i].cover > 0.0
-                                    && (px[i].cover < 1.0 || !px[i].set)
-                                {
-                                    // A partly covered pixel (the others are
-                                    // written as without coverage).
-                                    Some(shade(&px[i], shading, true))
-                                } else {
-                                    None
-                                };
-                                let at = (i - b.i0) * width + j0 + k;
-                                write_pixel(&mut b, at, &px[i], a, shading);
-                            }
-                        }
-                    });
-                j0 = j1;
-            }
-            Ok(())
+        // Every column writes its pixels straight into the row-major
+        // buffers (each pixel belongs to one column); a worker's columns
+        // reuse one scratch (pixels, sweep and solve buffers).
+        let out = SharedOut::new(&mut buf, shading);
+        total = with_threads(opts.threads, || {
+            (0..width)
+                .into_par_iter()
+                .map_init(column::ColumnScratch::default, |sc, j| {
+                    cancel.check()?;
+                    Ok(ortho_column(&ctx, j, sc, &out, shade_aa, geom))
+                })
+                .try_reduce(ColumnStats::default, |mut a, b| {
+                    a.add(&b);
+                    Ok(a)
+                })
         })??;
     }
     buf.samples = total.sweep_evals + total.refine_evals;
@@ -343,6 +284,73 @@ pub fn render_floating_column(
     buf.stat("early_exits", total.early_exit as f64);
     buf.stat("holes_filled", total.holes_filled as f64);
     Ok(buf)
+}
+
+/// Render orthographic column j (with `shade_aa`, its sub-columns' colours
+/// averaged) and write it into `out`.
+fn ortho_column(
+    ctx: &Ctx<'_>,
+    j: usize,
+    sc: &mut column::ColumnScratch,
+    out: &SharedOut<'_>,
+    shade_aa: bool,
+    geom: bool,
+) -> ColumnStats {
+    let (h, w) = (ctx.cam.height, ctx.cam.width);
+    let (shading, aa, cov) = (ctx.shading, ctx.opts.antialias, ctx.opts.coverage);
+    let mut st = ColumnStats::default();
+    let mut centre = std::mem::take(&mut sc.centre);
+    centre.clear();
+    centre.resize(h, Pixel::default());
+    // Shading accumulated over sub-columns: (r, g, b, I).
+    let mut acc = std::mem::take(&mut sc.acc);
+    if shade_aa {
+        acc.clear();
+        acc.resize(h, [0.0; 4]);
+        let mut sub = std::mem::take(&mut sc.sub);
+        for m in 0..aa {
+            let off = (m as f64 + 0.5) / aa as f64 - 0.5;
+            sub.clear();
+            sub.resize(h, Pixel::default());
+            st.add(&column::render_column_with(
+                ctx,
+                j as f64 + off,
+                &mut sub,
+                sc,
+            ));
+            for (a, p) in acc.iter_mut().zip(&sub) {
+                let c = shade(p, shading, cov);
+                for k in 0..3 {
+                    a[k] += c[k] / aa as f64;
+                }
+                if c[3].is_finite() {
+                    a[3] += c[3] / aa as f64;
+                }
+            }
+        }
+        sc.sub = sub;
+    }
+    if !shade_aa || geom {
+        st.add(&column::render_column_with(ctx, j as f64, &mut centre, sc));
+    }
+    for (i, p) in centre.iter().enumerate() {
+        let a = if shade_aa {
+            Some(acc[i])
+        } else if cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set) {
+            // A partly covered pixel (the others are written as without
+            // coverage).
+            Some(shade(p, shading, true))
+        } else {
+            None
+        };
+        if p.set || a.is_some() {
+            // SAFETY: pixel (i, j) belongs to column j only.
+            unsafe { out.put_with(i * w + j, p, a) };
+        }
+    }
+    sc.centre = centre;
+    sc.acc = acc;
+    st
 }
 
 /// Colour (r, g, b) and intensity of a pixel; NaN intensity when the
@@ -481,6 +489,17 @@ impl<'a> SharedOut<'a> {
     /// No other thread reads or writes pixel k meanwhile.
     #[inline]
     pub(crate) unsafe fn put(&self, k: usize, p: &Pixel) {
+        // SAFETY: the caller's guarantee.
+        unsafe { self.put_with(k, p, None) }
+    }
+
+    /// Write pixel k as [`write_pixel`] does, `acc` its supersampled colour
+    /// and intensity (if any).
+    ///
+    /// # Safety
+    /// No other thread reads or writes pixel k meanwhile.
+    #[inline]
+    pub(crate) unsafe fn put_with(&self, k: usize, p: &Pixel, acc: Option<[f64; 4]>) {
         assert!(k < self.n, "pixel index out of range");
         /// Pixel k of a buffer of `ch` values per pixel, as a slice.
         ///
@@ -495,8 +514,6 @@ impl<'a> SharedOut<'a> {
         // guarantees exclusive access to pixel k.
         let mut px = unsafe {
             RowsMut {
-                i0: 0,
-                i1: 1,
                 rgb: one(self.rgb, k, 3),
                 intensity: one(self.intensity, k, 1),
                 depth: one(self.depth, k, 1),
@@ -506,18 +523,13 @@ impl<'a> SharedOut<'a> {
                 mask: one(self.mask, k, 1),
             }
         };
-        write_pixel(&mut px, 0, p, None, self.shading);
+        write_pixel(&mut px, 0, p, acc, self.shading);
     }
 }
 
-/// Rows per block of the parallel writes.
-const ROWS: usize = 16;
-
-/// Rows i0..i1 of every buffer of a render (row-major slices).
+/// Rows of every buffer of a render (row-major slices).
 #[derive(Default)]
 struct RowsMut<'a> {
-    i0: usize,
-    i1: usize,
     rgb: Option<&'a mut [u8]>,
     intensity: Option<&'a mut [f32]>,
     depth: Option<&'a mut [f32]>,
@@ -531,13 +543,7 @@ struct RowsMut<'a> {
 fn split_rows(buf: &mut Buffers, rows: usize) -> Vec<RowsMut<'_>> {
     let (w, h) = (buf.width, buf.height);
     let n = h.div_ceil(rows.max(1));
-    let mut out: Vec<RowsMut<'_>> = (0..n)
-        .map(|b| RowsMut {
-            i0: b * rows,
-            i1: ((b + 1) * rows).min(h),
-            ..Default::default()
-        })
-        .collect();
+    let mut out: Vec<RowsMut<'_>> = (0..n).map(|_| RowsMut::default()).collect();
     macro_rules! cut {
         ($f:ident, $ch:expr) => {
             if let Some(v) = buf.$f.as_mut() {

@@ -23,23 +23,55 @@ pub struct Job {
     pub fp: f64,
 }
 
+/// Buffers of [`solve_with`], reused from call to call.
+#[derive(Debug, Default)]
+pub struct SolveScratch {
+    lam: Vec<f64>,
+    active: Vec<usize>,
+    next: Vec<usize>,
+    live: Vec<usize>,
+    failed: Vec<usize>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    hs: Vec<HeightSample>,
+}
+
 /// Solve `jobs`, updating `out[job.slot]` for each success; returns the
 /// slots that failed (left with their interpolated values) and the number
 /// of evaluations made.
 pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64) {
+    let mut sc = SolveScratch::default();
+    let (_, evals) = solve_with(ctx, jobs, out, &mut sc);
+    (sc.failed, evals)
+}
+
+/// [`solve`] with reused buffers: the failed slots are returned as a view
+/// of `sc`.
+pub fn solve_with<'s>(
+    ctx: &Ctx<'_>,
+    jobs: &[Job],
+    out: &mut [Pixel],
+    sc: &'s mut SolveScratch,
+) -> (&'s [usize], u64) {
     let dom = ctx.frame.domain;
     let d = ctx.cam.d;
-    let mut lam: Vec<f64> = jobs.iter().map(|j| j.lam).collect();
-    let mut active: Vec<usize> = (0..jobs.len()).collect();
-    let mut failed = Vec::new();
+    let SolveScratch {
+        lam,
+        active,
+        next,
+        live,
+        failed,
+        u,
+        v,
+        hs,
+    } = sc;
+    lam.clear();
+    lam.extend(jobs.iter().map(|j| j.lam));
+    active.clear();
+    active.extend(0..jobs.len());
+    failed.clear();
+    next.clear();
     let mut evals = 0u64;
-    let n = jobs.len();
-    let (mut u, mut v, mut hs) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
-    let (mut live, mut next) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for _ in 0..ctx.opts.refine_iters {
         if active.is_empty() {
             break;
@@ -47,7 +79,7 @@ pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64
         u.clear();
         v.clear();
         live.clear();
-        for &k in &active {
+        for &k in active.iter() {
             let p = jobs[k].o + lam[k] * jobs[k].dir;
             if dom.contains(p.x, p.y) {
                 u.push(p.x);
@@ -59,7 +91,7 @@ pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64
         }
         hs.clear();
         hs.resize(live.len(), HeightSample::default());
-        ctx.field.eval_batch(&u, &v, &mut hs);
+        ctx.field.eval_batch(u, v, hs);
         evals += live.len() as u64;
         next.clear();
         for (n, &k) in live.iter().enumerate() {
@@ -106,7 +138,7 @@ pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64
                 next.push(k);
             }
         }
-        std::mem::swap(&mut active, &mut next);
+        std::mem::swap(active, next);
     }
     failed.extend(active.iter().map(|&k| jobs[k].slot));
     failed.sort_unstable();

@@ -493,6 +493,14 @@ impl Default for Ahead {
 }
 
 impl Ahead {
+    /// Back to the state of a new sweep (keeping the buffers).
+    pub fn reset(&mut self) {
+        self.taus.clear();
+        self.smps.clear();
+        self.pos = 0;
+        self.k = Ahead::default().k;
+    }
+
     /// The farthest buffered sample with sweep parameter in (lo, hi].
     pub fn take(&mut self, lo: f64, hi: f64) -> Option<(f64, Option<Raw>)> {
         let mut best = None;
