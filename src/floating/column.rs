@@ -150,6 +150,9 @@ struct Sweep<'c, 'a> {
     h: usize,
     stats: ColumnStats,
     jobs: Vec<super::refine::Job>,
+    /// Pixels queued by orthographic spans, and those spans.
+    seeds: Vec<super::refine::SeedJob>,
+    spans: Vec<super::refine::SpanSeed>,
     /// Batched look-ahead (vertical column planes only).
     ahead: Option<Box<Ahead>>,
     batch: Vec<Option<Raw>>,
@@ -167,6 +170,9 @@ pub struct ColumnScratch {
     pub sub: Vec<Pixel>,
     pub acc: Vec<[f64; 4]>,
     jobs: Vec<super::refine::Job>,
+    seeds: Vec<super::refine::SeedJob>,
+    spans: Vec<super::refine::SpanSeed>,
+    ortho: super::refine::OrthoScratch,
     ahead: Box<Ahead>,
     batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,
@@ -210,6 +216,16 @@ pub fn render_column_with(
             j.clear();
             j
         },
+        seeds: {
+            let mut j = std::mem::take(&mut sc.seeds);
+            j.clear();
+            j
+        },
+        spans: {
+            let mut j = std::mem::take(&mut sc.spans);
+            j.clear();
+            j
+        },
         ahead: (line.kappa == 0.0).then(|| {
             let mut a = std::mem::take(&mut sc.ahead);
             a.reset();
@@ -240,6 +256,12 @@ pub fn render_column_with(
         sc.ahead = a;
     }
     sc.batch = std::mem::take(&mut sw.batch);
+    if !sw.seeds.is_empty() {
+        let (failed, evals) =
+            super::refine::solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, &mut sc.ortho);
+        sw.stats.refine_evals += evals;
+        sw.stats.refine_fail += failed;
+    }
     if !sw.jobs.is_empty() {
         let (failed, evals) = super::refine::solve_with(ctx, &sw.jobs, out, &mut sc.solve);
         if ctx.opts.shading == ShadingMode::Normal {
@@ -267,6 +289,8 @@ pub fn render_column_with(
     sw.stats.sweep_evals = sw.sampler.evals;
     sw.stats.folds = sw.sampler.folds;
     sc.jobs = std::mem::take(&mut sw.jobs);
+    sc.seeds = std::mem::take(&mut sw.seeds);
+    sc.spans = std::mem::take(&mut sw.spans);
     sw.stats
 }
 
@@ -729,7 +753,44 @@ impl<'c, 'a> Sweep<'c, 'a> {
             };
             let cam = self.ctx.cam;
             let dd = cam.d.dot(cam.d);
-            if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
+            let fast = self.ctx.refine && dd > 0.0 && self.fine.is_none();
+            if let (Some(c), true) = (&cubic, fast) {
+                // The common orthographic case, every pixel queued for its
+                // exact solve and written once when it ends
+                // ([`super::refine::solve_ortho`]): its seed depth and its
+                // weight in the span, the span's values kept once.
+                let fp = fr.pixel;
+                let span = (a.z - b.z).abs();
+                let k = self.spans.len() as u32;
+                let mut queued = false;
+                for i in i0..=i1 {
+                    let row = i as f64;
+                    if self.cov.contains(row) {
+                        continue;
+                    }
+                    let Some((tau, t, w)) = c.at(row) else {
+                        out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+                        continue;
+                    };
+                    self.seeds.push(super::refine::SeedJob {
+                        slot: i as u32,
+                        span: k,
+                        tau,
+                        lam: t * fr.d_t + w * fr.d_w,
+                    });
+                    queued = true;
+                }
+                if queued {
+                    self.spans.push(super::refine::SpanSeed {
+                        topo,
+                        lo: a.z.min(b.z) - 2.0 * fp - span,
+                        hi: a.z.max(b.z) + 2.0 * fp + span,
+                        n: [a.n, b.n],
+                        uv: [a.uv, b.uv],
+                        inten: [a.inten, b.inten],
+                    });
+                }
+            } else if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
                 // The common orthographic case, every pixel queued for its
                 // exact solve: what `pixel` and `queue` do, with the span's
                 // and the column's constants hoisted.
