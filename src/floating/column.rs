@@ -553,10 +553,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 };
                 let (tau_n, cand) = self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred);
                 let hh = tau_n - tau;
-                match (prev, cand) {
+                match (&prev, &cand) {
                     (Some(a), Some(b)) => {
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
-                        let hidden = gap > step_px && self.hidden(&a, &b);
+                        let hidden = gap > step_px && self.hidden(a, b);
                         if gap > step_px && !hidden && halvings < 40 && hh > min_frac * fp {
                             // Retry at the step the gap suggests (rows vary
                             // about linearly over a small step).
@@ -569,10 +569,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         if wall {
                             self.stats.walls += 1;
                         }
-                        let from = if wall { a } else { self.correct(&a, &b, out) };
-                        self.span(&from, &b, wall, out);
-                        prev = Some(b);
+                        let from = if wall { None } else { self.correct(a, b, out) };
+                        self.span(from.as_ref().unwrap_or(a), b, wall, out);
                         last_w = b.wr;
+                        prev = cand;
                         tau = tau_n;
                         if let Some((bt, after)) = barrier {
                             if tau >= bt {
@@ -586,7 +586,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                     }
                     (Some(a), None) => {
                         // The surface ends in (τ, τ_n): bisect for its edge.
-                        let (lo, hi) = self.bisect(tt, tau, tau_n, true, &a, sign, fp);
+                        let (lo, hi) = self.bisect(tt, tau, tau_n, true, a, sign, fp);
                         barrier = Some((lo, hi));
                         if lo <= tau {
                             prev = None;
@@ -596,6 +596,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         break;
                     }
                     (None, Some(b)) => {
+                        let b = *b;
                         let (lo, hi) = self.bisect(tt, tau, tau_n, false, &b, sign, fp);
                         let _ = lo;
                         let first = if hi < tau_n {
@@ -694,16 +695,14 @@ impl<'c, 'a> Sweep<'c, 'a> {
 
     /// §5 problem detection and correction between consecutive samples a and
     /// b: extra samples are inserted (and their spans drawn); returns the
-    /// sample the caller's last span (to b) starts from.
-    fn correct(&mut self, a: &Sample, b: &Sample, out: &mut [Pixel]) -> Sample {
+    /// sample the caller's last span (to b) starts from when it is not a.
+    fn correct(&mut self, a: &Sample, b: &Sample, out: &mut [Pixel]) -> Option<Sample> {
         let c = self.ctx.opts.corrections;
         if !c.any_detection() {
-            return *a;
+            return None;
         }
         let m = self.ctx.frame.plane_normal(self.ctx.cam, self.col);
-        let Some(problem) = artifacts::detect(&c, a, b, m) else {
-            return *a;
-        };
+        let problem = artifacts::detect(&c, a, b, m)?;
         self.stats.problems += 1;
         let inserted: Vec<f64> = if c.spline {
             artifacts::spline_top(problem, a, b, m)
@@ -723,7 +722,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 prev = mid;
             }
         }
-        prev
+        Some(prev)
     }
 
     /// Fill the rows newly revealed between samples a and b.

@@ -299,9 +299,12 @@ fn ortho_column(
     let (h, w) = (ctx.cam.height, ctx.cam.width);
     let (shading, aa, cov) = (ctx.shading, ctx.opts.antialias, ctx.opts.coverage);
     let mut st = ColumnStats::default();
+    // The pixels are left unset after each column (below).
     let mut centre = std::mem::take(&mut sc.centre);
-    centre.clear();
-    centre.resize(h, Pixel::default());
+    if centre.len() != h {
+        centre.clear();
+        centre.resize(h, Pixel::default());
+    }
     // Shading accumulated over sub-columns: (r, g, b, I).
     let mut acc = std::mem::take(&mut sc.acc);
     if shade_aa {
@@ -333,7 +336,15 @@ fn ortho_column(
     if !shade_aa || geom {
         st.add(&column::render_column_with(ctx, j as f64, &mut centre, sc));
     }
-    for (i, p) in centre.iter().enumerate() {
+    for (i, p) in centre.iter_mut().enumerate() {
+        if !shade_aa && !cov {
+            if p.set {
+                // SAFETY: pixel (i, j) belongs to column j only.
+                unsafe { out.put_set(i * w + j, p) };
+                *p = Pixel::default();
+            }
+            continue;
+        }
         let a = if shade_aa {
             Some(acc[i])
         } else if cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set) {
@@ -347,6 +358,7 @@ fn ortho_column(
             // SAFETY: pixel (i, j) belongs to column j only.
             unsafe { out.put_with(i * w + j, p, a) };
         }
+        *p = Pixel::default();
     }
     sc.centre = centre;
     sc.acc = acc;
@@ -491,6 +503,46 @@ impl<'a> SharedOut<'a> {
     pub(crate) unsafe fn put(&self, k: usize, p: &Pixel) {
         // SAFETY: the caller's guarantee.
         unsafe { self.put_with(k, p, None) }
+    }
+
+    /// Write a set pixel k without supersampling: what [`write_pixel`]
+    /// does, straight through the raw views (the common orthographic case).
+    ///
+    /// # Safety
+    /// No other thread reads or writes pixel k meanwhile.
+    #[inline]
+    pub(crate) unsafe fn put_set(&self, k: usize, p: &Pixel) {
+        assert!(k < self.n && p.set, "pixel index out of range");
+        // SAFETY: k < n, every non-null view holds n pixels, and the caller
+        // guarantees exclusive access to pixel k.
+        unsafe {
+            if !self.rgb.is_null() {
+                let c = self.shading.colour(p.inten, p.side);
+                std::ptr::copy_nonoverlapping(c.as_ptr(), self.rgb.add(3 * k), 3);
+            }
+            if !self.intensity.is_null() {
+                *self.intensity.add(k) = p.inten as f32;
+            }
+            if !self.depth.is_null() {
+                *self.depth.add(k) = p.depth as f32;
+            }
+            if !self.normal.is_null() {
+                let v = self.normal.add(3 * k);
+                *v = p.n.x as f32;
+                *v.add(1) = p.n.y as f32;
+                *v.add(2) = p.n.z as f32;
+            }
+            if !self.uv.is_null() {
+                *self.uv.add(2 * k) = p.uv.x as f32;
+                *self.uv.add(2 * k + 1) = p.uv.y as f32;
+            }
+            if !self.side.is_null() {
+                *self.side.add(k) = p.side;
+            }
+            if !self.mask.is_null() {
+                *self.mask.add(k) = true;
+            }
+        }
     }
 
     /// Write pixel k as [`write_pixel`] does, `acc` its supersampled colour
