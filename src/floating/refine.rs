@@ -282,8 +282,11 @@ pub fn solve_ortho(
                 fail(j, out);
             }
         }
-        hs.clear();
-        hs.resize(live.len(), HeightSample::default());
+        // Grown only (no clearing per batch).
+        if hs.len() < live.len() {
+            hs.resize(live.len(), HeightSample::default());
+        }
+        let hs = &mut hs[..live.len()];
         ctx.field.eval_batch(u, v, hs);
         evals += live.len() as u64;
         next.clear();
