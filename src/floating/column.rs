@@ -431,7 +431,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
 
     /// The next sample of a sweep after τ, at τ + h, or at any τ' in
     /// [τ + h/2, τ + h_max] already evaluated ahead (a smaller step than
-    /// wanted is always safe: the row gap is checked all the same).
+    /// wanted is always safe: the row gap is checked all the same). The
+    /// sample is written into `out` (in place: samples are large); returns
+    /// τ' and whether there is one (`out` is garbage otherwise).
     #[allow(clippy::too_many_arguments)]
     fn next(
         &mut self,
@@ -442,13 +444,20 @@ impl<'c, 'a> Sweep<'c, 'a> {
         limit: f64,
         snap: f64,
         pred: f64,
-    ) -> (f64, Option<Sample>) {
+        out: &mut Sample,
+    ) -> (f64, bool) {
         let Some(mut ahead) = self.ahead.take() else {
             let mut tau_n = tau + h;
             if tau_n >= limit - snap {
                 tau_n = limit;
             }
-            return (tau_n, self.sample(tt(tau_n), pred));
+            return match self.sample(tt(tau_n), pred) {
+                Some(x) => {
+                    *out = x;
+                    (tau_n, true)
+                }
+                None => (tau_n, false),
+            };
         };
         let hi = (tau + h_max).min(limit);
         let r = match ahead.take(tau + 0.5 * h, hi) {
@@ -467,14 +476,14 @@ impl<'c, 'a> Sweep<'c, 'a> {
             }
         };
         self.ahead = Some(ahead);
-        let s = match r.1 {
+        let ok = match r.1 {
             Some(x) => {
-                let x = self.sampler.finish(x.t, x.s, x.uv, x.h, false);
-                (x.rho.is_finite() && x.z.is_finite()).then_some(x)
+                self.sampler.finish_into(x.t, x.uv, x.h, false, out);
+                out.rho.is_finite() && out.z.is_finite()
             }
-            None => None,
+            None => false,
         };
-        (r.0, s)
+        (r.0, ok)
     }
 
     /// Prediction of w' at parameter distance dtau (signed t step) from a.
@@ -508,53 +517,62 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let tt = |tau: f64| t_start + sign * tau;
         let w0 = self.ctx.cam.view.target.z - fr.origin.z;
         let mut tau = 0.0;
-        let mut prev = self.sample(tt(0.0), w0);
-        if let Some(a) = prev {
+        // The previous sample (`pa`, when `has_prev`) and the candidate
+        // (`pb`): two slots whose references swap when a step is taken.
+        let (mut s0, mut s1) = (Sample::default(), Sample::default());
+        let (mut pa, mut pb) = (&mut s0, &mut s1);
+        let mut has_prev = false;
+        if let Some(a) = self.sample(tt(0.0), w0) {
             self.start_run(&a);
+            *pa = a;
+            has_prev = true;
         }
-        let mut last_w = prev.map(|a| a.wr).unwrap_or(w0);
+        let mut last_w = if has_prev { pa.wr } else { w0 };
         // End of the current valid stretch (found by bisection), if known.
         let mut barrier: Option<(f64, f64)> = None;
         let mut steps = 0usize;
         let min_frac = 1e-6;
         while tau < len && steps < MAX_STEPS {
             steps += 1;
-            let fp = match &prev {
-                Some(a) => fr.footprint(a.z),
-                None => fr.footprint(self.z_guess(tt(tau))),
+            let fp = if has_prev {
+                fr.footprint(pa.z)
+            } else {
+                fr.footprint(self.z_guess(tt(tau)))
             };
             let cap = opts.max_step() * fp;
             // The step aims a little under the row gap allowed (so that
             // few steps are retried), and any step up to the allowed gap
             // is taken from the look-ahead.
-            let (mut h, mut h_max) = match &prev {
+            let (mut h, mut h_max) = if !has_prev {
+                (cap, cap)
+            } else if self.cov.depth(self.clamp_row(pa.rho)) > 2.0 * step_px {
                 // Deep inside the covered rows nothing can show before the
                 // curve climbs out: take the largest step (checked below).
-                Some(a) if self.cov.depth(self.clamp_row(a.rho)) > 2.0 * step_px => (cap, cap),
-                Some(a) => {
-                    let r = a.drho_dt.abs();
-                    if r > 0.0 && r.is_finite() {
-                        ((AIM * step_px / r).min(cap), (step_px / r).min(cap))
-                    } else {
-                        (cap, cap)
-                    }
+                (cap, cap)
+            } else {
+                let r = pa.drho_dt.abs();
+                if r > 0.0 && r.is_finite() {
+                    ((AIM * step_px / r).min(cap), (step_px / r).min(cap))
+                } else {
+                    (cap, cap)
                 }
-                None => (cap, cap),
             };
             let limit = match barrier {
-                Some((b, _)) if prev.is_some() => b,
+                Some((b, _)) if has_prev => b,
                 _ => len,
             };
             let mut halvings = 0;
             loop {
-                let pred = match &prev {
-                    Some(a) => Self::predict(a, sign * h),
-                    None => last_w,
+                let pred = if has_prev {
+                    Self::predict(pa, sign * h)
+                } else {
+                    last_w
                 };
-                let (tau_n, cand) = self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred);
+                let (tau_n, ok) = self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred, pb);
                 let hh = tau_n - tau;
-                match (&prev, &cand) {
-                    (Some(a), Some(b)) => {
+                match (has_prev, ok) {
+                    (true, true) => {
+                        let (a, b) = (&*pa, &*pb);
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
                         let hidden = gap > step_px && self.hidden(a, b);
                         if gap > step_px && !hidden && halvings < 40 && hh > min_frac * fp {
@@ -572,31 +590,32 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         let from = if wall { None } else { self.correct(a, b, out) };
                         self.span(from.as_ref().unwrap_or(a), b, wall, out);
                         last_w = b.wr;
-                        prev = cand;
+                        // The candidate becomes the previous sample.
+                        std::mem::swap(&mut pa, &mut pb);
                         tau = tau_n;
                         if let Some((bt, after)) = barrier {
                             if tau >= bt {
                                 // End of the valid stretch: jump past it.
-                                prev = None;
+                                has_prev = false;
                                 tau = after;
                                 barrier = None;
                             }
                         }
                         break;
                     }
-                    (Some(a), None) => {
+                    (true, false) => {
                         // The surface ends in (τ, τ_n): bisect for its edge.
-                        let (lo, hi) = self.bisect(tt, tau, tau_n, true, a, sign, fp);
+                        let (lo, hi) = self.bisect(tt, tau, tau_n, true, pa, sign, fp);
                         barrier = Some((lo, hi));
                         if lo <= tau {
-                            prev = None;
+                            has_prev = false;
                             tau = hi;
                             barrier = None;
                         }
                         break;
                     }
-                    (None, Some(b)) => {
-                        let b = *b;
+                    (false, true) => {
+                        let b = *pb;
                         let (lo, hi) = self.bisect(tt, tau, tau_n, false, &b, sign, fp);
                         let _ = lo;
                         let first = if hi < tau_n {
@@ -611,12 +630,13 @@ impl<'c, 'a> Sweep<'c, 'a> {
                             tau_n
                         };
                         self.start_run(&first);
-                        prev = Some(first);
+                        *pa = first;
+                        has_prev = true;
                         last_w = first.wr;
                         tau = tau_f;
                         break;
                     }
-                    (None, None) => {
+                    (false, false) => {
                         tau = tau_n;
                         break;
                     }

@@ -213,7 +213,7 @@ pub struct ColumnLine {
 }
 
 /// One surface sample on a column's curve.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Sample {
     pub t: f64,
     /// w − O_w.
@@ -408,6 +408,14 @@ impl<'a> Sampler<'a> {
 
     /// Fill in the derived quantities of a sample at (s, t) with values h.
     pub fn finish(&self, t: f64, s: f64, uv: DVec2, h: HeightSample, fold: bool) -> Sample {
+        let _ = s;
+        let mut smp = Sample::default();
+        self.finish_into(t, uv, h, fold, &mut smp);
+        smp
+    }
+
+    /// [`Self::finish`] written in place.
+    pub fn finish_into(&self, t: f64, uv: DVec2, h: HeightSample, fold: bool, out: &mut Sample) {
         let fr = self.frame;
         let l = self.line;
         let wr = h.f - fr.origin.z;
@@ -442,8 +450,7 @@ impl<'a> Sampler<'a> {
         } else {
             (0.0, 0.0, DVec3::ZERO)
         };
-        let _ = s;
-        Sample {
+        *out = Sample {
             t,
             wr,
             uv,
@@ -456,7 +463,7 @@ impl<'a> Sampler<'a> {
             ldotn,
             lxn,
             fold,
-        }
+        };
     }
 }
 
