@@ -757,8 +757,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
             // Nothing newly revealed (the common case behind the front).
             return;
         }
-        let i0 = lo.ceil().max(0.0) as i64;
-        let i1 = hi.floor().min(self.h as f64 - 1.0) as i64;
+        let i0 = ceil_i(lo).max(0);
+        let i1 = floor_i(hi).min(self.h as i64 - 1);
         if i0 <= i1 {
             let upward = b.rho < a.rho;
             let fr = &self.ctx.frame;
@@ -1020,6 +1020,28 @@ impl Sweep<'_, '_> {
     }
 }
 
+/// ⌈x⌉ of a row (finite, far below 2⁵³ in size) without a call to `ceil`.
+#[inline]
+fn ceil_i(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) < x {
+        t + 1
+    } else {
+        t
+    }
+}
+
+/// ⌊x⌋ of a row (finite, far below 2⁵³ in size) without a call to `floor`.
+#[inline]
+fn floor_i(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x {
+        t - 1
+    } else {
+        t
+    }
+}
+
 /// Where row (or elevation) `x` lies between samples `a` and `b` along
 /// their chord: 0 at a, 1 at b, clamped; ½ when both have the same one.
 #[inline]
@@ -1083,4 +1105,26 @@ pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f6
     }
     let sq = disc.sqrt();
     ok((-b + sq) / (3.0 * a)) && ok((-b - sq) / (3.0 * a))
+}
+
+#[cfg(test)]
+mod row_tests {
+    use super::{ceil_i, floor_i};
+
+    /// The integer ceil and floor agree with `f64::ceil` and `f64::floor`
+    /// over the clamped row range, integers and their neighbours included.
+    #[test]
+    fn integer_ceil_and_floor_match() {
+        let mut xs = vec![
+            -2.0, -1.5, -0.5, -0.0, 0.0, 1e-300, -1e-300, 0.5, 477.0, 478.0,
+        ];
+        for k in -3..500 {
+            let x = k as f64;
+            xs.extend([x, x + 1e-12, x - 1e-12, x + 0.25, x - 0.75]);
+        }
+        for x in xs {
+            assert_eq!(ceil_i(x), x.ceil() as i64, "ceil {x}");
+            assert_eq!(floor_i(x), x.floor() as i64, "floor {x}");
+        }
+    }
 }
