@@ -11,6 +11,7 @@
 //! interpolation, which is still "evaluate only where visible".
 
 use super::artifacts;
+pub(crate) use super::refine::Direct;
 use super::sampling::{Ahead, Frame, Raw, Sample, Sampler};
 use super::{FloatingOptions, ShadingMode};
 use crate::camera::Camera;
@@ -190,6 +191,24 @@ pub fn render_column_with(
     out: &mut [Pixel],
     sc: &mut ColumnScratch,
 ) -> ColumnStats {
+    // SAFETY: nothing is written outside `out`.
+    unsafe { render_column_direct(ctx, col, out, sc, None) }
+}
+
+/// [`render_column_with`], the pixels of the exact orthographic solve
+/// written straight into the render's buffers with `direct` (without
+/// coverage only; the others still go to `out`).
+///
+/// # Safety
+/// With `direct`, no other thread reads or writes the pixels of column
+/// `direct.j` meanwhile, and `col` is that column.
+pub(crate) unsafe fn render_column_direct(
+    ctx: &Ctx<'_>,
+    col: f64,
+    out: &mut [Pixel],
+    sc: &mut ColumnScratch,
+    direct: Option<&super::refine::Direct<'_, '_>>,
+) -> ColumnStats {
     let fr = ctx.frame;
     let xpix = fr.xpix(col);
     let line = fr.column(xpix);
@@ -258,7 +277,7 @@ pub fn render_column_with(
     sc.batch = std::mem::take(&mut sw.batch);
     if !sw.seeds.is_empty() {
         let (failed, evals) =
-            super::refine::solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, &mut sc.ortho);
+            super::refine::solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, direct, &mut sc.ortho);
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed;
     }

@@ -334,14 +334,21 @@ fn ortho_column(
         sc.sub = sub;
     }
     if !shade_aa || geom {
-        st.add(&column::render_column_with(ctx, j as f64, &mut centre, sc));
+        // Plain renders: the exact solve writes its pixels straight into
+        // the buffers.
+        let direct = column::Direct { out, j, width: w };
+        let direct = (!shade_aa && !cov).then_some(&direct);
+        // SAFETY: pixel (i, j) belongs to column j only.
+        st.add(&unsafe { column::render_column_direct(ctx, j as f64, &mut centre, sc, direct) });
     }
     for (i, p) in centre.iter_mut().enumerate() {
         if !shade_aa && !cov {
             if p.set {
                 // SAFETY: pixel (i, j) belongs to column j only.
                 unsafe { out.put_set(i * w + j, p) };
-                *p = Pixel::default();
+                // The other pixels of a plain render are read only where
+                // set (and written whole when set).
+                p.set = false;
             }
             continue;
         }

@@ -201,6 +201,14 @@ pub struct SeedJob {
     pub lam: f64,
 }
 
+/// Where a column's finished pixels go when they are written straight into
+/// the render's buffers: pixel (i, `j`) at i·`width` + `j`.
+pub(crate) struct Direct<'a, 'b> {
+    pub(crate) out: &'a super::SharedOut<'b>,
+    pub(crate) j: usize,
+    pub(crate) width: usize,
+}
+
 /// Buffers of [`solve_ortho`], reused from call to call.
 #[derive(Debug, Default)]
 pub struct OrthoScratch {
@@ -216,16 +224,24 @@ pub struct OrthoScratch {
 /// [`solve`] for the pixels of orthographic column `col` seeded by their
 /// spans: the same Newton steps (bit for bit), with the ray origins computed
 /// from the rows and each pixel written once, when its solve ends (an
-/// exact hit, or its span's interpolation should the solve fail). Returns
-/// the number of failures and of evaluations.
-pub fn solve_ortho(
+/// exact hit, or its span's interpolation should the solve fail): into
+/// `out`, or with `direct`, straight into the render's buffers. Returns the
+/// number of failures and of evaluations.
+pub(crate) fn solve_ortho(
     ctx: &Ctx<'_>,
     col: f64,
     jobs: &[SeedJob],
     spans: &[SpanSeed],
     out: &mut [Pixel],
+    direct: Option<&Direct<'_, '_>>,
     sc: &mut OrthoScratch,
 ) -> (u64, u64) {
+    let put = |out: &mut [Pixel], slot: u32, px: Pixel| match direct {
+        // SAFETY: the caller of `render_column_with` guarantees that no
+        // other thread touches column `j`'s pixels.
+        Some(dst) => unsafe { dst.out.put_set(slot as usize * dst.width + dst.j, &px) },
+        None => out[slot as usize] = px,
+    };
     let cam = ctx.cam;
     let dom = ctx.frame.domain;
     let d = cam.d;
@@ -247,7 +263,7 @@ pub fn solve_ortho(
         if normal {
             px.inten = ctx.shading.intensity(px.n, -d);
         }
-        out[j.slot as usize] = px;
+        put(out, j.slot, px);
         fails += 1;
     };
     let OrthoScratch {
@@ -333,7 +349,7 @@ pub fn solve_ortho(
                 } else {
                     s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
                 };
-                out[j.slot as usize] = Pixel {
+                let px = Pixel {
                     set: true,
                     side,
                     depth: l,
@@ -342,6 +358,7 @@ pub fn solve_ortho(
                     inten,
                     cover: 1.0,
                 };
+                put(out, j.slot, px);
             } else {
                 next.push(k);
             }
