@@ -361,6 +361,9 @@ pub(super) struct SpanCubic {
     m0: f64,
     ca: f64,
     cb: f64,
+    /// 3·ca and 2·cb (the slope's coefficients, as `at` multiplies them).
+    ca3: f64,
+    cb2: f64,
     w0: f64,
     n0: f64,
     wa: f64,
@@ -385,14 +388,18 @@ impl SpanCubic {
         if !(n0.is_finite() && n1.is_finite()) {
             return None;
         }
+        let ca = 2.0 * (a.rho - b.rho) + m0 + m1;
+        let cb = 3.0 * dr - 2.0 * m0 - m1;
         Some(SpanCubic {
             rho0: a.rho,
             t0: a.t,
             dt,
             dr,
             m0,
-            ca: 2.0 * (a.rho - b.rho) + m0 + m1,
-            cb: 3.0 * dr - 2.0 * m0 - m1,
+            ca,
+            cb,
+            ca3: 3.0 * ca,
+            cb2: 2.0 * cb,
             w0,
             n0,
             wa: 2.0 * (w0 - w1) + n0 + n1,
@@ -413,7 +420,7 @@ impl SpanCubic {
             if res < 1e-7 {
                 break;
             }
-            let dp = (3.0 * ca * tau + 2.0 * cb) * tau + m0;
+            let dp = (self.ca3 * tau + self.cb2) * tau + m0;
             if dp * dr <= 0.0 {
                 return None;
             }
