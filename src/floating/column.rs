@@ -409,7 +409,7 @@ impl SpanCubic {
 
     /// The point of the span at row `row`: (τ, t, w'); `None` where the
     /// solve for τ does not settle.
-    #[inline]
+    #[inline(always)]
     pub(super) fn at(&self, row: f64) -> Option<(f64, f64, f64)> {
         let (ca, cb, m0, dr) = (self.ca, self.cb, self.m0, self.dr);
         let mut tau = ((row - self.rho0) / dr).clamp(0.0, 1.0);
