@@ -113,15 +113,14 @@ pub(crate) fn render_radial(
         .enumerate()
         .map(|(m, (bs, ts))| {
             let mut count = vec![0u32; nb];
+            let (mut dx, mut dy) = (vec![0.0; w], vec![0.0; w]);
             for (r, (brow, trow)) in bs.chunks_mut(w).zip(ts.chunks_mut(w)).enumerate() {
                 let i = m * rows + r;
+                row_rays(cam, i as f64 + off.0, off.1, &mut dx, &mut dy, trow);
                 let mut b = usize::MAX;
-                for (j, (bj, tj)) in brow.iter_mut().zip(trow.iter_mut()).enumerate() {
-                    let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
-                    let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-                    b = bins.near(b, dir.x, dir.y);
+                for ((bj, &x), &y) in brow.iter_mut().zip(&dx).zip(&dy) {
+                    b = bins.near(b, x, y);
                     *bj = b as u32;
-                    *tj = elevation(dir.z, hl);
                     count[b] += 1;
                 }
             }
@@ -442,6 +441,42 @@ fn fill_holes(
         }
     }
     stats.refine_evals += sw.stats.refine_evals;
+}
+
+/// The horizontal components of the unit ray directions of one row's pixels
+/// (row `row`, columns j + `off_col`), bit for bit those of
+/// [`crate::camera::Camera::ray`], and their pseudo-elevations (see
+/// [`elevation`]); in plain arrays, so that the loop vectorises.
+fn row_rays(
+    cam: &crate::camera::Camera,
+    row: f64,
+    off_col: f64,
+    dx: &mut [f64],
+    dy: &mut [f64],
+    theta: &mut [f64],
+) {
+    // The operations of `Camera::pixel_to_screen` and `Camera::ray` (F·d +
+    // x·r + y·up, normalised by the reciprocal of its length), in the same
+    // order, with the products that do not depend on the column hoisted.
+    let half_w = 0.5 * cam.width as f64;
+    let y = 0.5 * cam.height as f64 - 0.5 - row;
+    let fd = cam.focal * cam.d;
+    let yu = y * cam.up;
+    let r = cam.r;
+    for (j, ((x_out, y_out), t_out)) in dx.iter_mut().zip(dy.iter_mut()).zip(theta).enumerate() {
+        let x = j as f64 + off_col + 0.5 - half_w;
+        let v = DVec3::new(
+            fd.x + x * r.x + yu.x,
+            fd.y + x * r.y + yu.y,
+            fd.z + x * r.z + yu.z,
+        );
+        let rl = 1.0 / (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
+        let d = DVec3::new(v.x * rl, v.y * rl, v.z * rl);
+        let hl = (d.x * d.x + d.y * d.y).sqrt();
+        *x_out = d.x;
+        *y_out = d.y;
+        *t_out = elevation(d.z, hl);
+    }
 }
 
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
@@ -945,8 +980,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// Direction of ray `k` of this sweep (its pixel centre shifted by the
     /// pass's sub-pixel offset).
     fn ray_dir(&self, k: usize) -> DVec3 {
-        let w = self.ctx.cam.width;
-        let pix = self.rays[k].k as usize;
+        // Pixel indices are u32 (so is the width of any image with them).
+        let w = self.ctx.cam.width as u32;
+        let pix = self.rays[k].k;
         let (i, j) = (pix / w, pix % w);
         self.ctx
             .cam
@@ -1140,14 +1176,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let mut halvings = 0;
             loop {
                 let (rn, cand) = self.next(rho, hstep, h_max, r1);
-                match (prev, cand) {
+                // By reference: a sample is large, and most steps move none.
+                match (&prev, &cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
-                        let hidden = gap > opts.step() && self.hidden(&a, &b);
+                        let hidden = gap > opts.step() && self.hidden(a, b);
                         if gap > opts.step()
                             && !hidden
                             && halvings < 40
-                            && (rn - rho) > 1e-9 * fp_at(&a)
+                            && (rn - rho) > 1e-9 * fp_at(a)
                         {
                             hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
                             h_max = hstep;
@@ -1158,16 +1195,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         if wall {
                             self.stats.walls += 1;
                         }
-                        let from = if wall { a } else { self.correct(&a, &b) };
-                        self.span(&from, &b, wall);
-                        prev = Some(b);
+                        match if wall { None } else { self.correct(a, b) } {
+                            Some(from) => self.span(&from, b, wall),
+                            None => self.span(a, b, wall),
+                        }
                     }
-                    (None, Some(b)) => {
-                        self.cov.add(b.rho, b.rho);
-                        prev = Some(b);
-                    }
-                    (_, None) => prev = None,
+                    (None, Some(b)) => self.cov.add(b.rho, b.rho),
+                    (_, None) => {}
                 }
+                prev = cand;
                 rho = rn;
                 break;
             }
@@ -1296,15 +1332,16 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.solver.failed = failed;
     }
 
-    fn correct(&mut self, a: &Sample, b: &Sample) -> Sample {
+    /// §5 corrections between samples a and b: the spans up to the last
+    /// inserted sample, which the span to b then starts from (None: no
+    /// problem detected, the span starts from a).
+    fn correct(&mut self, a: &Sample, b: &Sample) -> Option<Sample> {
         let c = self.ctx.opts.corrections;
         if !c.any_detection() {
-            return *a;
+            return None;
         }
         let m = DVec3::new(-self.eh.y, self.eh.x, 0.0);
-        let Some(problem) = artifacts::detect(&c, a, b, m) else {
-            return *a;
-        };
+        let problem = artifacts::detect(&c, a, b, m)?;
         self.stats.problems += 1;
         let inserted: Vec<f64> = if c.spline {
             artifacts::spline_top(problem, a, b, m)
@@ -1323,7 +1360,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 prev = mid;
             }
         }
-        prev
+        Some(prev)
     }
 
     fn span(&mut self, a: &Sample, b: &Sample, wall: bool) {
@@ -1539,5 +1576,42 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ga = gb;
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Projection, View};
+
+    /// The vectorised row set-up gives `Camera::ray`'s directions and their
+    /// elevations bit for bit (the bins and the sweeps depend on them).
+    #[test]
+    fn row_rays_match_camera_rays() {
+        for (el, az, w, h) in [(30.0, 40.0, 37, 23), (-10.0, 200.0, 8, 61), (89.0, 0.0, 5, 5)] {
+            let view = View {
+                elevation: el,
+                azimuth: az,
+                projection: Projection::Perspective {
+                    distance: 7.5,
+                    fov: 50.0,
+                },
+                target: DVec3::new(0.3, -0.2, 0.1),
+            };
+            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            let (mut dx, mut dy, mut th) = (vec![0.0; w], vec![0.0; w], vec![0.0; w]);
+            for off in [(0.0, 0.0), (0.25, -0.375)] {
+                for i in 0..h {
+                    row_rays(&cam, i as f64 + off.0, off.1, &mut dx, &mut dy, &mut th);
+                    for j in 0..w {
+                        let (_, d) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+                        let t = elevation(d.z, (d.x * d.x + d.y * d.y).sqrt());
+                        assert_eq!(dx[j].to_bits(), d.x.to_bits());
+                        assert_eq!(dy[j].to_bits(), d.y.to_bits());
+                        assert_eq!(th[j].to_bits(), t.to_bits());
+                    }
+                }
+            }
+        }
     }
 }
