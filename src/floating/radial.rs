@@ -151,12 +151,26 @@ pub(crate) fn render_radial(
         .zip(slots.par_iter_mut())
         .enumerate()
         .for_each(|(m, ((bs, ts), next))| {
-            for (q, (&b, &th)) in bs.iter().zip(ts).enumerate() {
-                let slot = &mut next[b as usize];
-                // SAFETY: the slots of all blocks and bins partition 0..n
-                // (each block has its own run of slots in every bin).
-                unsafe { dst.put(*slot as usize, (m * block + q) as u32, th) };
-                *slot += 1;
+            // Column by column in tiles of a few rows: a bin is a line of
+            // the screen through the vanishing point of the verticals, so
+            // that consecutive pixels of a column mostly share a bin and the
+            // writes stay within a few pages (row by row, each lands in
+            // another bin's run). Each bin's pixels are then in row-major
+            // order up to the tiles, which its sort by θ settles.
+            let rows_here = bs.len() / w;
+            for t0 in (0..rows_here).step_by(TILE) {
+                let t1 = (t0 + TILE).min(rows_here);
+                for j in 0..w {
+                    for r in t0..t1 {
+                        let q = r * w + j;
+                        let slot = &mut next[bs[q] as usize];
+                        // SAFETY: the slots of all blocks and bins partition
+                        // 0..n (each block has its own run of slots in every
+                        // bin).
+                        unsafe { dst.put(*slot as usize, (m * block + q) as u32, ts[q]) };
+                        *slot += 1;
+                    }
+                }
             }
         });
     // SAFETY: every slot of 0..n was written once above (the counts add up
@@ -249,6 +263,9 @@ pub(crate) fn render_radial(
     }
     Ok((all, stats))
 }
+
+/// Rows per tile of the counting sort's placement (see [`render_radial`]).
+const TILE: usize = 16;
 
 /// The destination of the parallel counting sort: pixel indices and
 /// elevations of the sorted rays.
@@ -480,9 +497,11 @@ fn row_rays(
 }
 
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
-/// order is too). A bin's pixels come in row-major order, along a line of
-/// the screen on which θ is monotone: nearly sorted or nearly reversed, so
-/// an insertion sort after an optional reversal takes about one pass.
+/// order is too). A bin's pixels come in row-major order up to the tiles of
+/// the placement, along a line of the screen on which θ is monotone: nearly
+/// sorted or nearly reversed, each ray a few places from its own (at most a
+/// tile's pixels of the bin), so that an insertion sort after an optional
+/// reversal takes a few moves per ray.
 fn sort_rays(rays: &mut [Ray]) {
     let before = |x: &Ray, y: &Ray| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt();
     let n = rays.len();
@@ -502,7 +521,7 @@ fn sort_rays(rays: &mut [Ray]) {
         }
         rays[j] = x;
         moves += i - j;
-        if moves > 4 * n + 64 {
+        if moves > 16 * n + 64 {
             // Far from sorted after all.
             rays.sort_unstable_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
             return;
