@@ -18,7 +18,12 @@ fn main() {
     let num = |k: usize, d: usize| a.get(k).and_then(|v| v.parse().ok()).unwrap_or(d);
     let (w, h, rep) = (num(2, 480), num(3, 477), num(4, 5));
     let mut o = FloatingOptions::default();
-    let mut names = vec!["rgb".to_string(), "depth".into(), "normal".into(), "mask".into()];
+    let mut names = vec![
+        "rgb".to_string(),
+        "depth".into(),
+        "normal".into(),
+        "mask".into(),
+    ];
     for kv in a.iter().skip(5) {
         let (k, v) = kv.split_once('=').expect("key=value");
         match k {

@@ -65,34 +65,40 @@ pub(crate) fn render_radial(
     let e = cam.eye;
     // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
     // largest far from the vanishing point of the verticals, on the border.
-    let mut sens: f64 = 1.0;
     let delta: f64 = 1e-6;
-    let mut probe = |i: usize, j: usize| {
+    let (sd, cd) = delta.sin_cos();
+    let probe = |i: usize, j: usize| -> f64 {
         let (_, dir) = cam.ray(i as f64, j as f64);
         if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
-            let (s, c) = delta.sin_cos();
-            let d2 = DVec3::new(c * dir.x - s * dir.y, s * dir.x + c * dir.y, dir.z);
+            let d2 = DVec3::new(cd * dir.x - sd * dir.y, sd * dir.x + cd * dir.y, dir.z);
             let p1 = cam.to_screen(e + dir);
             let p2 = cam.to_screen(e + d2);
             let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
             if ds.is_finite() {
-                sens = sens.max(ds);
+                return ds;
             }
         }
+        1.0
     };
+    // The border, then every 8th pixel of every 8th row (rows in parallel;
+    // the maximum does not depend on the order).
+    let mut sens: f64 = 1.0;
     for j in 0..w {
-        probe(0, j);
-        probe(h - 1, j);
+        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
     }
     for i in 0..h {
-        probe(i, 0);
-        probe(i, w - 1);
+        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
     }
-    for i in (0..h).step_by(8) {
-        for j in (0..w).step_by(8) {
-            probe(i, j);
-        }
-    }
+    let grid = (0..h.div_ceil(8))
+        .into_par_iter()
+        .map(|r| {
+            (0..w)
+                .step_by(8)
+                .map(|j| probe(8 * r, j))
+                .fold(1.0, f64::max)
+        })
+        .reduce(|| 1.0, f64::max);
+    let sens = sens.max(grid);
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
     let bins = Bins::new(nb);
@@ -1607,7 +1613,11 @@ mod tests {
     /// elevations bit for bit (the bins and the sweeps depend on them).
     #[test]
     fn row_rays_match_camera_rays() {
-        for (el, az, w, h) in [(30.0, 40.0, 37, 23), (-10.0, 200.0, 8, 61), (89.0, 0.0, 5, 5)] {
+        for (el, az, w, h) in [
+            (30.0, 40.0, 37, 23),
+            (-10.0, 200.0, 8, 61),
+            (89.0, 0.0, 5, 5),
+        ] {
             let view = View {
                 elevation: el,
                 azimuth: az,
