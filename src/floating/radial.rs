@@ -105,9 +105,10 @@ pub(crate) fn render_radial(
     // Bin and pseudo-elevation of every pixel, in blocks of rows in
     // parallel (along a row each pixel's bin is walked to from its left
     // neighbour's), each block counting its pixels per bin; then a counting
-    // sort by bin: each bin's slots (in block order, so that every bin
-    // lists its pixels in row-major order, as a serial sort does), and each
-    // block places its pixels in its own slots.
+    // sort by bin: each bin's slots (in block order), and each block places
+    // its pixels in its own slots. The order within a bin depends on the
+    // blocks, hence on the thread count; its sort by θ (ties by pixel
+    // index) makes it unique.
     let n = w * h;
     let rows = h.div_ceil(4 * rayon::current_num_threads().max(1)).max(1);
     let block = (w * rows).max(1);
