@@ -164,10 +164,21 @@ pub(crate) fn render_radial(
             // writes stay within a few pages (row by row, each lands in
             // another bin's run). Each bin's pixels are then in row-major
             // order up to the tiles, which its sort by θ settles.
+            // The columns of each half are taken in the direction the bins
+            // take going down the screen (towards the centre column, where
+            // the vanishing point lies, when it is below; away from it when
+            // above), so that a bin's pixels keep their row order.
             let rows_here = bs.len() / w;
+            let c = w / 2;
+            let down = cam.d.z <= 0.0;
+            let (left, right): (Vec<usize>, Vec<usize>) = if down {
+                ((0..c).collect(), (c..w).rev().collect())
+            } else {
+                ((0..c).rev().collect(), (c..w).collect())
+            };
             for t0 in (0..rows_here).step_by(TILE) {
                 let t1 = (t0 + TILE).min(rows_here);
-                for j in 0..w {
+                for &j in left.iter().chain(&right) {
                     for r in t0..t1 {
                         let q = r * w + j;
                         let slot = &mut next[bs[q] as usize];
