@@ -65,65 +65,71 @@ pub(crate) fn render_radial(
     let e = cam.eye;
     // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
     // largest far from the vanishing point of the verticals, on the border.
-    let mut sens: f64 = 1.0;
     let delta: f64 = 1e-6;
-    let mut probe = |i: usize, j: usize| {
+    let (sd, cd) = delta.sin_cos();
+    let probe = |i: usize, j: usize| -> f64 {
         let (_, dir) = cam.ray(i as f64, j as f64);
         if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
-            let (s, c) = delta.sin_cos();
-            let d2 = DVec3::new(c * dir.x - s * dir.y, s * dir.x + c * dir.y, dir.z);
+            let d2 = DVec3::new(cd * dir.x - sd * dir.y, sd * dir.x + cd * dir.y, dir.z);
             let p1 = cam.to_screen(e + dir);
             let p2 = cam.to_screen(e + d2);
             let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
             if ds.is_finite() {
-                sens = sens.max(ds);
+                return ds;
             }
         }
+        1.0
     };
+    // The border, then every 8th pixel of every 8th row (rows in parallel;
+    // the maximum does not depend on the order).
+    let mut sens: f64 = 1.0;
     for j in 0..w {
-        probe(0, j);
-        probe(h - 1, j);
+        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
     }
     for i in 0..h {
-        probe(i, 0);
-        probe(i, w - 1);
+        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
     }
-    for i in (0..h).step_by(8) {
-        for j in (0..w).step_by(8) {
-            probe(i, j);
-        }
-    }
+    let grid = (0..h.div_ceil(8))
+        .into_par_iter()
+        .map(|r| {
+            (0..w)
+                .step_by(8)
+                .map(|j| probe(8 * r, j))
+                .fold(1.0, f64::max)
+        })
+        .reduce(|| 1.0, f64::max);
+    let sens = sens.max(grid);
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
     let bins = Bins::new(nb);
-    // Bin and pseudo-elevation of every pixel (rows in parallel; along a
-    // row each pixel's bin is walked to from its left neighbour's), then a
-    // counting sort by bin.
-    let mut per_px = vec![(0u32, 0.0f64); w * h];
-    per_px
-        .par_chunks_mut(w.max(1))
-        .enumerate()
-        .for_each(|(i, row)| {
-            let mut b = usize::MAX;
-            for (j, slot) in row.iter_mut().enumerate() {
-                let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
-                let hl = (dir.x * dir.x + dir.y * dir.y).sqrt();
-                b = bins.near(b, dir.x, dir.y);
-                *slot = (b as u32, elevation(dir.z, hl));
-            }
-        });
-    // The counting sort in blocks of rows, in parallel: each block's count
-    // per bin, each bin's slots (in block order, so that every bin lists
-    // its pixels in row-major order, as a serial sort does), then each
-    // block places its pixels in its own slots.
+    // Bin and pseudo-elevation of every pixel, in blocks of rows in
+    // parallel (along a row each pixel's bin is walked to from its left
+    // neighbour's), each block counting its pixels per bin; then a counting
+    // sort by bin: each bin's slots (in block order), and each block places
+    // its pixels in its own slots. The order within a bin depends on the
+    // blocks, hence on the thread count; its sort by θ (ties by pixel
+    // index) makes it unique.
     let n = w * h;
-    let block = (w * h.div_ceil(4 * rayon::current_num_threads().max(1))).max(1);
-    let mut slots: Vec<Vec<u32>> = per_px
-        .par_chunks(block)
-        .map(|c| {
+    let rows = h.div_ceil(4 * rayon::current_num_threads().max(1)).max(1);
+    let block = (w * rows).max(1);
+    let mut bin_of = vec![0u32; n];
+    let mut theta_of = vec![0.0f64; n];
+    let mut slots: Vec<Vec<u32>> = bin_of
+        .par_chunks_mut(block)
+        .zip(theta_of.par_chunks_mut(block))
+        .enumerate()
+        .map(|(m, (bs, ts))| {
             let mut count = vec![0u32; nb];
-            for &(b, _) in c {
-                count[b as usize] += 1;
+            let (mut dx, mut dy) = (vec![0.0; w], vec![0.0; w]);
+            for (r, (brow, trow)) in bs.chunks_mut(w).zip(ts.chunks_mut(w)).enumerate() {
+                let i = m * rows + r;
+                row_rays(cam, i as f64 + off.0, off.1, &mut dx, &mut dy, trow);
+                let mut b = usize::MAX;
+                for ((bj, &x), &y) in brow.iter_mut().zip(&dx).zip(&dy) {
+                    b = bins.near(b, x, y);
+                    *bj = b as u32;
+                    count[b] += 1;
+                }
             }
             count
         })
@@ -138,35 +144,69 @@ pub(crate) fn render_radial(
         }
         start[b + 1] = at;
     }
-    let mut rays: Vec<Ray> = Vec::with_capacity(n);
-    let dst = RayOut(rays.as_mut_ptr());
-    per_px
+    // The sorted rays, as pixel indices and elevations.
+    let mut ray_k: Vec<u32> = Vec::with_capacity(n);
+    let mut ray_th: Vec<f64> = Vec::with_capacity(n);
+    let dst = RayOut {
+        n,
+        k: ray_k.as_mut_ptr(),
+        theta: ray_th.as_mut_ptr(),
+    };
+    bin_of
         .par_chunks(block)
+        .zip(theta_of.par_chunks(block))
         .zip(slots.par_iter_mut())
         .enumerate()
-        .for_each(|(m, (c, next))| {
-            for (q, &(b, th)) in c.iter().enumerate() {
-                let slot = &mut next[b as usize];
-                let ray = Ray {
-                    k: (m * block + q) as u32,
-                    theta: th,
-                };
-                // SAFETY: the slots of all blocks and bins partition 0..n
-                // (each block has its own run of slots in every bin).
-                unsafe { dst.put(*slot as usize, n, ray) };
-                *slot += 1;
+        .for_each(|(m, ((bs, ts), next))| {
+            // Column by column in tiles of a few rows: a bin is a line of
+            // the screen through the vanishing point of the verticals, so
+            // that consecutive pixels of a column mostly share a bin and the
+            // writes stay within a few pages (row by row, each lands in
+            // another bin's run). Each bin's pixels are then in row-major
+            // order up to the tiles, which its sort by θ settles.
+            // The columns of each half are taken in the direction the bins
+            // take going down the screen (towards the centre column, where
+            // the vanishing point lies, when it is below; away from it when
+            // above), so that a bin's pixels keep their row order.
+            let rows_here = bs.len() / w;
+            let c = w / 2;
+            let down = cam.d.z <= 0.0;
+            let (left, right): (Vec<usize>, Vec<usize>) = if down {
+                ((0..c).collect(), (c..w).rev().collect())
+            } else {
+                ((0..c).rev().collect(), (c..w).collect())
+            };
+            for t0 in (0..rows_here).step_by(TILE) {
+                let t1 = (t0 + TILE).min(rows_here);
+                for &j in left.iter().chain(&right) {
+                    for r in t0..t1 {
+                        let q = r * w + j;
+                        let slot = &mut next[bs[q] as usize];
+                        // SAFETY: the slots of all blocks and bins partition
+                        // 0..n (each block has its own run of slots in every
+                        // bin).
+                        unsafe { dst.put(*slot as usize, (m * block + q) as u32, ts[q]) };
+                        *slot += 1;
+                    }
+                }
             }
         });
     // SAFETY: every slot of 0..n was written once above (the counts add up
-    // to n = w·h, the length of `per_px`).
-    unsafe { rays.set_len(n) };
-    drop(per_px);
+    // to n = w·h, the length of `bin_of`).
+    unsafe {
+        ray_k.set_len(n);
+        ray_th.set_len(n);
+    }
+    drop(bin_of);
+    drop(slots);
     let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
     // Which pixels are set and their depths, compactly (for the hole
     // filling): written by the bins (each its own pixels) when they write
-    // their pixels directly, else gathered from their lists.
-    let mut set = vec![false; w * h];
-    let mut depth = vec![f64::NAN; w * h];
+    // their pixels directly, else gathered from their lists. The depths
+    // reuse the elevations' memory: a depth is read only where its pixel is
+    // set, which writes it.
+    let mut set = vec![false; n];
+    let mut depth = theta_of;
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
         n: w * h,
@@ -175,34 +215,39 @@ pub(crate) fn render_radial(
     };
     let results: Vec<Result<BinResult>> = groups
         .par_iter()
-        .map(|&b| {
-            cancel.check()?;
-            let mut bin: Vec<Ray> = rays[start[b]..start[b + 1]].to_vec();
-            bin.sort_unstable_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
-            let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
-            let mut sw = RadialSweep::new(ctx, phi, &bin);
-            sw.off = off;
-            sw.ppr = bin_ppr(cam, phi, bin[0].theta, bin[bin.len() - 1].theta);
-            if ctx.opts.coverage {
-                sw.start_coverage();
-            }
-            sw.run();
-            sw.solve();
-            sw.finish_coverage();
-            if let Some(out) = direct {
-                for (k, p) in &sw.out {
-                    // SAFETY: the bins partition the pixels and a bin lists
-                    // each of its pixels once, so no other thread touches
-                    // pixel k.
-                    unsafe {
-                        out.put(*k, p);
-                        marks.put(*k, p);
-                    }
+        .map_init(
+            || RadialSweep::new(ctx, 0.0, &[]),
+            |sw, &b| {
+                cancel.check()?;
+                let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                let (s0, s1) = (start[b], start[b + 1]);
+                sw.reset(phi, &ray_k[s0..s1], &ray_th[s0..s1]);
+                sw.off = off;
+                let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
+                sw.ppr = bin_ppr(cam, phi, th0, th1);
+                if ctx.opts.coverage {
+                    sw.start_coverage();
                 }
-                sw.out.clear();
-            }
-            Ok((sw.out, sw.stats))
-        })
+                sw.run();
+                sw.solve();
+                sw.finish_coverage();
+                let stats = std::mem::take(&mut sw.stats);
+                if let Some(out) = direct {
+                    for (k, p) in &sw.out {
+                        // SAFETY: the bins partition the pixels and a bin lists
+                        // each of its pixels once, so no other thread touches
+                        // pixel k.
+                        unsafe {
+                            out.put(*k, p);
+                            marks.put(*k, p);
+                        }
+                    }
+                    Ok((Vec::new(), stats))
+                } else {
+                    Ok((std::mem::take(&mut sw.out), stats))
+                }
+            },
+        )
         .collect();
     let mut stats = ColumnStats::default();
     let mut all = Vec::with_capacity(results.len() + 1);
@@ -237,8 +282,16 @@ pub(crate) fn render_radial(
     Ok((all, stats))
 }
 
-/// The destination of the parallel counting sort.
-struct RayOut(*mut Ray);
+/// Rows per tile of the counting sort's placement (see [`render_radial`]).
+const TILE: usize = 16;
+
+/// The destination of the parallel counting sort: pixel indices and
+/// elevations of the sorted rays.
+struct RayOut {
+    n: usize,
+    k: *mut u32,
+    theta: *mut f64,
+}
 
 // SAFETY: written only through `put`, each slot from one thread only.
 unsafe impl Sync for RayOut {}
@@ -246,13 +299,16 @@ unsafe impl Send for RayOut {}
 
 impl RayOut {
     /// # Safety
-    /// `slot < n`, the capacity of the destination, and no other thread
-    /// writes that slot.
+    /// No other thread writes that slot.
     #[inline]
-    unsafe fn put(&self, slot: usize, n: usize, ray: Ray) {
-        assert!(slot < n, "slot out of range");
-        // SAFETY: in bounds of the allocation and exclusive (see above).
-        unsafe { self.0.add(slot).write(ray) };
+    unsafe fn put(&self, slot: usize, k: u32, theta: f64) {
+        assert!(slot < self.n, "slot out of range");
+        // SAFETY: in bounds of both allocations (capacity n) and exclusive
+        // (see above).
+        unsafe {
+            self.k.add(slot).write(k);
+            self.theta.add(slot).write(theta);
+        }
     }
 }
 
@@ -420,6 +476,75 @@ fn fill_holes(
         }
     }
     stats.refine_evals += sw.stats.refine_evals;
+}
+
+/// The horizontal components of the unit ray directions of one row's pixels
+/// (row `row`, columns j + `off_col`), bit for bit those of
+/// [`crate::camera::Camera::ray`], and their pseudo-elevations (see
+/// [`elevation`]); in plain arrays, so that the loop vectorises.
+fn row_rays(
+    cam: &crate::camera::Camera,
+    row: f64,
+    off_col: f64,
+    dx: &mut [f64],
+    dy: &mut [f64],
+    theta: &mut [f64],
+) {
+    // The operations of `Camera::pixel_to_screen` and `Camera::ray` (F·d +
+    // x·r + y·up, normalised by the reciprocal of its length), in the same
+    // order, with the products that do not depend on the column hoisted.
+    let half_w = 0.5 * cam.width as f64;
+    let y = 0.5 * cam.height as f64 - 0.5 - row;
+    let fd = cam.focal * cam.d;
+    let yu = y * cam.up;
+    let r = cam.r;
+    for (j, ((x_out, y_out), t_out)) in dx.iter_mut().zip(dy.iter_mut()).zip(theta).enumerate() {
+        let x = j as f64 + off_col + 0.5 - half_w;
+        let v = DVec3::new(
+            fd.x + x * r.x + yu.x,
+            fd.y + x * r.y + yu.y,
+            fd.z + x * r.z + yu.z,
+        );
+        let rl = 1.0 / (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
+        let d = DVec3::new(v.x * rl, v.y * rl, v.z * rl);
+        let hl = (d.x * d.x + d.y * d.y).sqrt();
+        *x_out = d.x;
+        *y_out = d.y;
+        *t_out = elevation(d.z, hl);
+    }
+}
+
+/// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
+/// order is too). A bin's pixels come in row-major order up to the tiles of
+/// the placement, along a line of the screen on which θ is monotone: nearly
+/// sorted or nearly reversed, each ray a few places from its own (at most a
+/// tile's pixels of the bin), so that an insertion sort after an optional
+/// reversal takes a few moves per ray.
+fn sort_rays(rays: &mut [Ray]) {
+    let before = |x: &Ray, y: &Ray| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt();
+    let n = rays.len();
+    if n < 2 {
+        return;
+    }
+    if before(&rays[n - 1], &rays[0]) {
+        rays.reverse();
+    }
+    let mut moves = 0usize;
+    for i in 1..n {
+        let x = rays[i];
+        let mut j = i;
+        while j > 0 && before(&x, &rays[j - 1]) {
+            rays[j] = rays[j - 1];
+            j -= 1;
+        }
+        rays[j] = x;
+        moves += i - j;
+        if moves > 16 * n + 64 {
+            // Far from sorted after all.
+            rays.sort_unstable_by(|x, y| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)));
+            return;
+        }
+    }
 }
 
 /// Eight set flags from index a, one byte each (1: set).
@@ -635,19 +760,49 @@ impl SpanConst {
     }
 }
 
+/// One pixel of a bin to solve on its ray from the eye (see
+/// [`RadialSweep::solve`]).
+#[derive(Debug, Clone, Copy)]
+struct BinJob {
+    dir: DVec3,
+    /// Seed and bracket of the distance along the ray.
+    lam: f64,
+    lo: f64,
+    hi: f64,
+    /// World size of a pixel at the seed.
+    fp: f64,
+    /// Index of the pixel in the sweep's output.
+    slot: u32,
+    /// Seen side (for the march fallback).
+    side: i8,
+}
+
+/// Reusable buffers of [`RadialSweep::solve`] (indices into the jobs).
+#[derive(Debug, Default)]
+struct SolveScratch {
+    lam: Vec<f64>,
+    active: Vec<u32>,
+    next: Vec<u32>,
+    live: Vec<u32>,
+    failed: Vec<u32>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    hs: Vec<HeightSample>,
+}
+
 struct RadialSweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
     eh: DVec2,
     /// The bin's rays, sorted by θ.
-    rays: &'c [Ray],
+    rays: Vec<Ray>,
     done: Vec<bool>,
     /// Covered θ intervals.
     cov: super::column::Coverage,
     out: Vec<(usize, Pixel)>,
     stats: ColumnStats,
-    jobs: Vec<super::refine::Job>,
-    /// Seen side of each job (for the march fallback).
-    job_side: Vec<i8>,
+    jobs: Vec<BinJob>,
+    /// Buffers of the batched solve.
+    solver: SolveScratch,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
     ahead: Ahead,
@@ -669,17 +824,17 @@ struct RadialSweep<'c, 'a> {
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
-    fn new(ctx: &'c Ctx<'a>, phi: f64, rays: &'c [Ray]) -> Self {
+    fn new(ctx: &'c Ctx<'a>, phi: f64, rays: &[Ray]) -> Self {
         RadialSweep {
             ctx,
             eh: DVec2::new(phi.cos(), phi.sin()),
-            rays,
+            rays: rays.to_vec(),
             done: vec![false; rays.len()],
             cov: Default::default(),
             out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
             jobs: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
-            job_side: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
+            solver: SolveScratch::default(),
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
             batch: Vec::new(),
@@ -690,6 +845,37 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             half: 0.0,
             edge: Vec::new(),
         }
+    }
+
+    /// Ready the sweep for the bin of azimuth φ whose rays are the pixels
+    /// `ks` at elevations `ths` (in row-major order), as [`Self::new`] would
+    /// make it, keeping its buffers (one sweep serves many bins in turn).
+    fn reset(&mut self, phi: f64, ks: &[u32], ths: &[f64]) {
+        self.eh = DVec2::new(phi.cos(), phi.sin());
+        self.rays.clear();
+        self.rays
+            .extend(ks.iter().zip(ths).map(|(&k, &theta)| Ray { k, theta }));
+        sort_rays(&mut self.rays);
+        self.done.clear();
+        self.done.resize(ks.len(), false);
+        self.cov = Default::default();
+        self.out.clear();
+        self.stats = ColumnStats::default();
+        self.jobs.clear();
+        self.ppr = 1.5 * self.ctx.cam.focal;
+        let (scratch, ts) = (
+            std::mem::take(&mut self.ahead.scratch),
+            std::mem::take(&mut self.ahead.ts),
+        );
+        self.ahead = Ahead::default();
+        self.ahead.scratch = scratch;
+        self.ahead.ts = ts;
+        self.cursor = 0;
+        self.off = (0.0, 0.0);
+        self.fine = None;
+        self.ext.clear();
+        self.half = 0.0;
+        self.edge.clear();
     }
 
     /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½]
@@ -831,8 +1017,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// Direction of ray `k` of this sweep (its pixel centre shifted by the
     /// pass's sub-pixel offset).
     fn ray_dir(&self, k: usize) -> DVec3 {
-        let w = self.ctx.cam.width;
-        let pix = self.rays[k].k as usize;
+        // Pixel indices are u32 (so is the width of any image with them).
+        let w = self.ctx.cam.width as u32;
+        let pix = self.rays[k].k;
         let (i, j) = (pix / w, pix % w);
         self.ctx
             .cam
@@ -1026,14 +1213,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let mut halvings = 0;
             loop {
                 let (rn, cand) = self.next(rho, hstep, h_max, r1);
-                match (prev, cand) {
+                // By reference: a sample is large, and most steps move none.
+                match (&prev, &cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
-                        let hidden = gap > opts.step() && self.hidden(&a, &b);
+                        let hidden = gap > opts.step() && self.hidden(a, b);
                         if gap > opts.step()
                             && !hidden
                             && halvings < 40
-                            && (rn - rho) > 1e-9 * fp_at(&a)
+                            && (rn - rho) > 1e-9 * fp_at(a)
                         {
                             hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
                             h_max = hstep;
@@ -1044,16 +1232,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         if wall {
                             self.stats.walls += 1;
                         }
-                        let from = if wall { a } else { self.correct(&a, &b) };
-                        self.span(&from, &b, wall);
-                        prev = Some(b);
+                        match if wall { None } else { self.correct(a, b) } {
+                            Some(from) => self.span(&from, b, wall),
+                            None => self.span(a, b, wall),
+                        }
                     }
-                    (None, Some(b)) => {
-                        self.cov.add(b.rho, b.rho);
-                        prev = Some(b);
-                    }
-                    (_, None) => prev = None,
+                    (None, Some(b)) => self.cov.add(b.rho, b.rho),
+                    (_, None) => {}
                 }
+                prev = cand;
                 rho = rn;
                 break;
             }
@@ -1070,28 +1257,100 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// The batched exact solve of the bin's pixels, with a march along the
-    /// ray for those Newton could not settle (the pixel's ray is up to half
-    /// a pixel off the bin's plane, so its seed can be poor at grazing).
+    /// The batched exact solve of the bin's pixels (Newton on the pixel's
+    /// ray as [`super::refine::solve`] does, all from the eye), with a march
+    /// along the ray for those Newton could not settle (the pixel's ray is
+    /// up to half a pixel off the bin's plane, so its seed can be poor at
+    /// grazing).
     fn solve(&mut self) {
         if self.jobs.is_empty() {
             return;
         }
-        let mut px: Vec<Pixel> = self.out.iter().map(|(_, p)| *p).collect();
-        let jobs = std::mem::take(&mut self.jobs);
-        let (failed, evals) = super::refine::solve(self.ctx, &jobs, &mut px);
+        let ctx = self.ctx;
+        let (e, d) = (ctx.cam.eye, ctx.cam.d);
+        let dom = ctx.frame.domain;
+        let tol = ctx.opts.refine_tol;
+        let sc = &mut self.solver;
+        let jobs = &self.jobs;
+        sc.lam.clear();
+        sc.lam.extend(jobs.iter().map(|j| j.lam));
+        sc.active.clear();
+        sc.active.extend(0..jobs.len() as u32);
+        sc.failed.clear();
+        let mut evals = 0u64;
+        for _ in 0..ctx.opts.refine_iters {
+            if sc.active.is_empty() {
+                break;
+            }
+            sc.u.clear();
+            sc.v.clear();
+            sc.live.clear();
+            for &k in &sc.active {
+                let j = &jobs[k as usize];
+                let p = e + sc.lam[k as usize] * j.dir;
+                if dom.contains(p.x, p.y) {
+                    sc.u.push(p.x);
+                    sc.v.push(p.y);
+                    sc.live.push(k);
+                } else {
+                    sc.failed.push(k);
+                }
+            }
+            sc.hs.clear();
+            sc.hs.resize(sc.live.len(), HeightSample::default());
+            ctx.field.eval_batch(&sc.u, &sc.v, &mut sc.hs);
+            evals += sc.live.len() as u64;
+            sc.next.clear();
+            for (n, &k) in sc.live.iter().enumerate() {
+                let j = &jobs[k as usize];
+                let h = sc.hs[n];
+                let lam = sc.lam[k as usize];
+                let p = e + lam * j.dir;
+                if !h.is_finite() {
+                    sc.failed.push(k);
+                    continue;
+                }
+                let g = p.z - h.f;
+                let gp = j.dir.z - (h.fu * j.dir.x + h.fv * j.dir.y);
+                if gp == 0.0 || !gp.is_finite() {
+                    sc.failed.push(k);
+                    continue;
+                }
+                let dl = g / gp;
+                let l = lam - dl;
+                if !(l >= j.lo && l <= j.hi) {
+                    sc.failed.push(k);
+                    continue;
+                }
+                sc.lam[k as usize] = l;
+                if dl.abs() <= tol * j.fp {
+                    let q = e + l * j.dir;
+                    if !dom.contains(q.x, q.y) {
+                        sc.failed.push(k);
+                        continue;
+                    }
+                    let depth = (q - e).dot(d);
+                    let px = &mut self.out[j.slot as usize].1;
+                    super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), &h);
+                } else {
+                    sc.next.push(k);
+                }
+            }
+            std::mem::swap(&mut sc.active, &mut sc.next);
+        }
         self.stats.refine_evals += evals;
-        for slot in failed {
-            let k = jobs.partition_point(|j| j.slot < slot);
-            let j = jobs[k];
-            let side = self.job_side[k];
-            match self.march(j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, side) {
+        let mut failed = std::mem::take(&mut self.solver.failed);
+        failed.extend_from_slice(&self.solver.active);
+        failed.sort_unstable();
+        for &k in &failed {
+            let j = self.jobs[k as usize];
+            match self.march(j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, j.side) {
                 Some((lam, hs)) => {
-                    let q = j.o + lam * j.dir;
-                    let depth = (q - j.o).dot(self.ctx.cam.d);
+                    let q = e + lam * j.dir;
+                    let depth = (q - e).dot(d);
                     super::refine::finish(
-                        self.ctx,
-                        &mut px[slot],
+                        ctx,
+                        &mut self.out[j.slot as usize].1,
                         j.dir,
                         depth,
                         DVec2::new(q.x, q.y),
@@ -1100,27 +1359,26 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 }
                 None => {
                     self.stats.refine_fail += 1;
-                    if self.ctx.opts.shading == ShadingMode::Normal {
-                        let p = &mut px[slot];
-                        p.inten = self.ctx.shading.intensity(p.n, -j.dir);
+                    if ctx.opts.shading == ShadingMode::Normal {
+                        let p = &mut self.out[j.slot as usize].1;
+                        p.inten = ctx.shading.intensity(p.n, -j.dir);
                     }
                 }
             }
         }
-        for (o, p) in self.out.iter_mut().zip(px) {
-            o.1 = p;
-        }
+        self.solver.failed = failed;
     }
 
-    fn correct(&mut self, a: &Sample, b: &Sample) -> Sample {
+    /// §5 corrections between samples a and b: the spans up to the last
+    /// inserted sample, which the span to b then starts from (None: no
+    /// problem detected, the span starts from a).
+    fn correct(&mut self, a: &Sample, b: &Sample) -> Option<Sample> {
         let c = self.ctx.opts.corrections;
         if !c.any_detection() {
-            return *a;
+            return None;
         }
         let m = DVec3::new(-self.eh.y, self.eh.x, 0.0);
-        let Some(problem) = artifacts::detect(&c, a, b, m) else {
-            return *a;
-        };
+        let problem = artifacts::detect(&c, a, b, m)?;
         self.stats.problems += 1;
         let inserted: Vec<f64> = if c.spline {
             artifacts::spline_top(problem, a, b, m)
@@ -1139,7 +1397,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 prev = mid;
             }
         }
-        prev
+        Some(prev)
     }
 
     fn span(&mut self, a: &Sample, b: &Sample, wall: bool) {
@@ -1243,16 +1501,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let fp = lam0.max(cam.near) / cam.focal;
             let (la, lb) = (sp.la, sp.lb);
             let span = (la - lb).abs();
-            self.jobs.push(super::refine::Job {
-                slot: self.out.len(),
-                o: e,
+            self.jobs.push(BinJob {
                 dir,
                 lam: lam0,
                 lo: la.min(lb).min(lam0) - 4.0 * fp - span,
                 hi: la.max(lb).max(lam0) + 4.0 * fp + span,
                 fp,
+                slot: self.out.len() as u32,
+                side: topo,
             });
-            self.job_side.push(topo);
         }
         if wall && ctx.opts.corrections.walls {
             let hz = DVec3::new(self.eh.x, self.eh.y, 0.0);
@@ -1356,5 +1613,46 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ga = gb;
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Projection, View};
+
+    /// The vectorised row set-up gives `Camera::ray`'s directions and their
+    /// elevations bit for bit (the bins and the sweeps depend on them).
+    #[test]
+    fn row_rays_match_camera_rays() {
+        for (el, az, w, h) in [
+            (30.0, 40.0, 37, 23),
+            (-10.0, 200.0, 8, 61),
+            (89.0, 0.0, 5, 5),
+        ] {
+            let view = View {
+                elevation: el,
+                azimuth: az,
+                projection: Projection::Perspective {
+                    distance: 7.5,
+                    fov: 50.0,
+                },
+                target: DVec3::new(0.3, -0.2, 0.1),
+            };
+            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            let (mut dx, mut dy, mut th) = (vec![0.0; w], vec![0.0; w], vec![0.0; w]);
+            for off in [(0.0, 0.0), (0.25, -0.375)] {
+                for i in 0..h {
+                    row_rays(&cam, i as f64 + off.0, off.1, &mut dx, &mut dy, &mut th);
+                    for j in 0..w {
+                        let (_, d) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+                        let t = elevation(d.z, (d.x * d.x + d.y * d.y).sqrt());
+                        assert_eq!(dx[j].to_bits(), d.x.to_bits());
+                        assert_eq!(dy[j].to_bits(), d.y.to_bits());
+                        assert_eq!(th[j].to_bits(), t.to_bits());
+                    }
+                }
+            }
+        }
     }
 }
