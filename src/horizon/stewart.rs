@@ -52,6 +52,63 @@ pub fn tangent(h: &[Proj], p: Proj) -> usize {
     lo
 }
 
+/// [`tangent`] searched from a guess `g` (any index) instead of by
+/// bisection: the answer is the first i with `better(p, h[i], h[i + 1])`
+/// false, a predicate true then false along the hull, so stepping from `g`
+/// towards the change (by doubling strides, then bisecting the last stride)
+/// finds the same index. Two comparisons when `g` is the answer.
+#[inline]
+pub fn tangent_from(h: &[Proj], p: Proj, g: usize) -> usize {
+    let last = h.len() - 1;
+    let g = g.min(last);
+    let up = |i: usize| better(p, h[i], h[i + 1]);
+    let (mut lo, mut hi); // the answer lies in lo..=hi
+    if g < last && up(g) {
+        // the answer is above g
+        lo = g + 1;
+        let mut step = 1;
+        loop {
+            if lo == last || !up(lo) {
+                return lo;
+            }
+            let next = (lo + step).min(last);
+            if next == last || !up(next) {
+                hi = next;
+                lo += 1;
+                break;
+            }
+            lo = next + 1;
+            step *= 2;
+        }
+    } else {
+        // the answer is g or below
+        hi = g;
+        let mut step = 1;
+        loop {
+            if hi == 0 || up(hi - 1) {
+                return hi;
+            }
+            hi -= 1;
+            let next = hi.saturating_sub(step);
+            if next == 0 || up(next - 1) {
+                lo = next;
+                break;
+            }
+            hi = next - 1;
+            step *= 2;
+        }
+    }
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if up(mid) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
 #[inline]
 fn o3(a: Proj, b: Proj, c: Proj) -> i32 {
     orient((a.w, a.zz), (b.w, b.zz), (c.w, c.zz))
@@ -232,6 +289,10 @@ struct Hull {
     wmin: f64,
     wmax: f64,
     zmax: f64,
+    /// The last tangent index found: consecutive queries of one node come
+    /// in a⊥ order and mostly share their answer (about 3 in 4 on a terrain
+    /// grid, most others one vertex off), so the next search starts there.
+    guess: usize,
 }
 
 impl Hull {
@@ -240,6 +301,7 @@ impl Hull {
         self.wmin = f64::INFINITY;
         self.wmax = f64::NEG_INFINITY;
         self.zmax = f64::NEG_INFINITY;
+        self.guess = 0;
     }
 
     #[inline]
@@ -269,7 +331,7 @@ impl Hull {
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
     #[inline]
-    fn query(&self, r: &mut Rec) {
+    fn query(&mut self, r: &mut Rec) {
         let p = r.p;
         // Slope of the best so far (−∞: none): skip a hull that cannot beat
         // it without searching it.
@@ -281,7 +343,8 @@ impl Hull {
         if self.cannot_beat(p, bs) {
             return;
         }
-        r.best = pick(p, r.best, self.h[tangent(&self.h, p)]);
+        self.guess = tangent_from(&self.h, p, self.guess);
+        r.best = pick(p, r.best, self.h[self.guess]);
     }
 }
 
@@ -292,6 +355,7 @@ impl Default for Hull {
             wmin: 0.0,
             wmax: 0.0,
             zmax: 0.0,
+            guess: 0,
         };
         h.clear();
         h

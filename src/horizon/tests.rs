@@ -349,3 +349,30 @@ fn stewart_equals_brute_grid_consecutive_sectors() {
         assert!(same_bits(&a, &b), "s {s}");
     }
 }
+
+#[test]
+fn tangent_from_any_guess_is_tangent() {
+    // Hulls with collinear-free vertices on a small lattice (many exact ties
+    // of elevation, settled by distance), seen from points left of them.
+    let mut r = rng(23);
+    for _ in 0..300 {
+        let mut h = Vec::new();
+        for _ in 0..(1 + r() % 40) {
+            let q = Proj {
+                w: (r() % 40) as f64,
+                zz: (r() % 25) as f64,
+            };
+            stewart::insert(&mut h, q);
+        }
+        for _ in 0..20 {
+            let p = Proj {
+                w: -1.0 - (r() % 30) as f64,
+                zz: (r() % 60) as f64 - 20.0,
+            };
+            let want = stewart::tangent(&h, p);
+            for g in 0..h.len() + 3 {
+                assert_eq!(stewart::tangent_from(&h, p, g), want, "guess {g}");
+            }
+        }
+    }
+}
