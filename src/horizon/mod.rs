@@ -305,9 +305,20 @@ pub fn project(f: &Frame, x: f64, y: f64, z: f64, c: f64) -> Proj {
 /// elevation, or the same elevation and nearer along r)? Exact.
 #[inline]
 pub fn better(p: Proj, cur: Proj, cand: Proj) -> bool {
-    match crate::horizon::exact::orient((p.w, p.zz), (cur.w, cur.zz), (cand.w, cand.zz)) {
+    let (a, b, c) = ((p.w, p.zz), (cur.w, cur.zz), (cand.w, cand.zz));
+    match exact::orient_filtered(a, b, c) {
+        Some(s) => s,
+        None => better_near(a, b, c),
+    }
+}
+
+/// [`better`] when the orientation filter cannot decide.
+#[cold]
+#[inline(never)]
+fn better_near(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> bool {
+    match exact::orient(a, b, c) {
         1 => true,
-        0 => cand.w < cur.w,
+        0 => c.0 < b.0,
         _ => false,
     }
 }

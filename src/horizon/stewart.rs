@@ -29,7 +29,7 @@
 //! The near-vertex check of §IV-E is applied by the caller (see
 //! [`super::cms::near_vertex`]) when asked for.
 
-use super::exact::orient;
+use super::exact::{orient, orient_filtered};
 use super::{better, elevation, project, Frame, Options, Progress, Proj, Terrain, EMPTY};
 use crate::cancel::Cancel;
 use crate::error::Result;
@@ -109,9 +109,24 @@ pub fn tangent_from(h: &[Proj], p: Proj, g: usize) -> usize {
     lo
 }
 
-#[inline]
-fn o3(a: Proj, b: Proj, c: Proj) -> i32 {
-    orient((a.w, a.zz), (b.w, b.zz), (c.w, c.zz))
+/// Do a, b, c turn clockwise or lie on a line (orientation ≤ 0)?
+#[inline(always)]
+fn cw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
+    let (a, b, c) = ((a.w, a.zz), (b.w, b.zz), (c.w, c.zz));
+    match orient_filtered(a, b, c) {
+        Some(pos) => !pos,
+        None => orient(a, b, c) <= 0,
+    }
+}
+
+/// Do a, b, c turn counter-clockwise or lie on a line (orientation ≥ 0)?
+#[inline(always)]
+fn ccw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
+    let (a, b, c) = ((a.w, a.zz), (b.w, b.zz), (c.w, c.zz));
+    match orient_filtered(a, b, c) {
+        Some(pos) => pos,
+        None => orient(a, b, c) >= 0,
+    }
 }
 
 /// Insert `q` into the strictly convex upper hull `h` (sorted by w).
@@ -125,7 +140,7 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
 /// push at the end, or lies strictly under the hull between its end points,
 /// which the end points' heights show (an upper hull over [w_min, w_max] is
 /// concave, so it is nowhere lower than its lower end).
-#[inline]
+#[inline(always)]
 pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     let n = h.len();
     if n == 0 {
@@ -136,7 +151,7 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     if q.w < near.w {
         // a new nearest vertex: pop the vertices on or under segment q–h[k−2]
         let mut k = n;
-        while k >= 2 && o3(h[k - 2], h[k - 1], q) <= 0 {
+        while k >= 2 && cw_or_flat(h[k - 2], h[k - 1], q) {
             k -= 1;
         }
         h.truncate(k);
@@ -153,7 +168,21 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
 /// decreasing w when `DESC` (every orientation then flips sign).
 #[inline]
 fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
-    let o = |a, b, c| if DESC { -o3(a, b, c) } else { o3(a, b, c) };
+    // orientation ≤ 0 and ≥ 0 in the hull's order (mirrored when DESC)
+    let le0 = |a, b, c| {
+        if DESC {
+            ccw_or_flat(a, b, c)
+        } else {
+            cw_or_flat(a, b, c)
+        }
+    };
+    let ge0 = |a, b, c| {
+        if DESC {
+            cw_or_flat(a, b, c)
+        } else {
+            ccw_or_flat(a, b, c)
+        }
+    };
     let n = h.len();
     let mut pos = h.partition_point(|v| if DESC { v.w > q.w } else { v.w < q.w });
     let mut end = pos; // h[pos..end] will be replaced by q
@@ -163,13 +192,13 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
         }
         end = pos + 1;
     }
-    if pos > 0 && end < n && o(h[pos - 1], h[end], q) <= 0 {
+    if pos > 0 && end < n && le0(h[pos - 1], h[end], q) {
         return; // on or below the hull
     }
-    while end + 1 < n && o(q, h[end], h[end + 1]) >= 0 {
+    while end + 1 < n && ge0(q, h[end], h[end + 1]) {
         end += 1;
     }
-    while pos >= 2 && o(h[pos - 2], h[pos - 1], q) >= 0 {
+    while pos >= 2 && ge0(h[pos - 2], h[pos - 1], q) {
         pos -= 1;
     }
     if end == pos {
@@ -304,7 +333,7 @@ impl Hull {
         self.guess = 0;
     }
 
-    #[inline]
+    #[inline(always)]
     fn add(&mut self, q: Proj) {
         self.wmin = self.wmin.min(q.w);
         self.wmax = self.wmax.max(q.w);
@@ -330,7 +359,7 @@ impl Hull {
     }
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
-    #[inline]
+    #[inline(always)]
     fn query(&mut self, r: &mut Rec) {
         let p = r.p;
         // Slope of the best so far (−∞: none): skip a hull that cannot beat
@@ -379,6 +408,7 @@ pub struct Work {
     kin: Vec<u8>,
     dst: Vec<Rec>,
     hull: Hull,
+    hulls: [Hull; 3],
     /// The terrain (its key array and point count) and b⊥ vector of the
     /// sector these buffers last computed: `b` and `by_b` still hold its
     /// b⊥ keys and order. Cleared by [`release`] at the end of every
@@ -457,6 +487,79 @@ fn merge(src: &[Rec], mid: usize, dst: &mut [Rec], hull: &mut Hull) {
         o += 1;
     }
     dst[o..].copy_from_slice(&right[j..]);
+}
+
+/// a⊥ rank of `s[i]`, `u32::MAX` past the end.
+#[inline(always)]
+fn head(s: &[Rec], i: usize) -> u32 {
+    match s.get(i) {
+        Some(r) => r.a,
+        None => u32::MAX,
+    }
+}
+
+/// Two levels of the tree in one pass: `src` holds up to four runs of
+/// `width` points (subtrees LL, LR, RL, RR in rank order), each in a⊥ order.
+/// Merging LL with LR and RL with RL is [`merge`] at nodes A = (LL, LR) and
+/// B = (RL, RR); merging the two results is [`merge`] at their parent C.
+/// Here the three merges run as one, each point taken once from its run in
+/// a⊥ order and written once, with the three hulls live together: every
+/// hull sees the same inserts and queries in the same order as in two
+/// separate passes (a hull whose queries are all done takes no more
+/// points), and every point queries its lower node's hull before
+/// its upper node's, as there.
+fn merge4(src: &[Rec], width: usize, dst: &mut [Rec], hulls: &mut [Hull; 3]) {
+    let (ll, rest) = src.split_at(width.min(src.len()));
+    let (lr, rest) = rest.split_at(width.min(rest.len()));
+    let (rl, rr) = rest.split_at(width.min(rest.len()));
+    let [ha, hb, hc] = hulls;
+    ha.clear();
+    hb.clear();
+    hc.clear();
+    let (mut i0, mut i1, mut j0, mut j1) = (0, 0, 0, 0);
+    for d in dst.iter_mut() {
+        let (a0, a1) = (head(ll, i0), head(lr, i1));
+        let (b0, b1) = (head(rl, j0), head(rr, j1));
+        let mut r;
+        if a0.min(a1) < b0.min(b1) {
+            // from node A's side of C: queries C's hull
+            if a0 < a1 {
+                r = ll[i0];
+                i0 += 1;
+                if !ha.h.is_empty() {
+                    ha.query(&mut r);
+                }
+            } else {
+                r = lr[i1];
+                i1 += 1;
+                if i0 < ll.len() {
+                    ha.add(r.p);
+                }
+            }
+            if !hc.h.is_empty() {
+                hc.query(&mut r);
+            }
+        } else {
+            // from node B's side of C: joins C's hull
+            if b0 < b1 {
+                r = rl[j0];
+                j0 += 1;
+                if !hb.h.is_empty() {
+                    hb.query(&mut r);
+                }
+            } else {
+                r = rr[j1];
+                j1 += 1;
+                if j0 < rl.len() {
+                    hb.add(r.p);
+                }
+            }
+            if i0 < ll.len() || i1 < lr.len() {
+                hc.add(r.p);
+            }
+        }
+        *d = r;
+    }
 }
 
 /// One sector for every point (`plane` has one value per terrain point).
@@ -594,17 +697,22 @@ pub fn sector_with(
     progress.add(share);
     let mut width = BLOCK;
     while width < n {
-        for (s, d) in w.src.chunks(2 * width).zip(w.dst.chunks_mut(2 * width)) {
-            if s.len() > width {
-                merge(s, width, d, &mut w.hull);
-            } else {
+        // Two levels per pass while two remain, then the last one alone.
+        let two = 2 * width < n;
+        let span = if two { 4 * width } else { 2 * width };
+        for (s, d) in w.src.chunks(span).zip(w.dst.chunks_mut(span)) {
+            if s.len() <= width {
                 d.copy_from_slice(s);
+            } else if two {
+                merge4(s, width, d, &mut w.hulls);
+            } else {
+                merge(s, width, d, &mut w.hull);
             }
         }
         std::mem::swap(&mut w.src, &mut w.dst);
-        width *= 2;
+        width = span;
         cancel.check()?;
-        progress.add(share);
+        progress.add(if two { 2 * share } else { share });
     }
     // w.src is now in a⊥ order: w.src[s].a == s.
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));
