@@ -500,7 +500,7 @@ fn head(s: &[Rec], i: usize) -> u32 {
 
 /// Two levels of the tree in one pass: `src` holds up to four runs of
 /// `width` points (subtrees LL, LR, RL, RR in rank order), each in a⊥ order.
-/// Merging LL with LR and RL with RL is [`merge`] at nodes A = (LL, LR) and
+/// Merging LL with LR and RL with RR is [`merge`] at nodes A = (LL, LR) and
 /// B = (RL, RR); merging the two results is [`merge`] at their parent C.
 /// Here the three merges run as one, each point taken once from its run in
 /// a⊥ order and written once, with the three hulls live together: every
