@@ -57,7 +57,7 @@ pub fn tangent(h: &[Proj], p: Proj) -> usize {
 /// false, a predicate true then false along the hull, so stepping from `g`
 /// towards the change (by doubling strides, then bisecting the last stride)
 /// finds the same index. Two comparisons when `g` is the answer.
-#[inline]
+#[inline(always)]
 pub fn tangent_from(h: &[Proj], p: Proj, g: usize) -> usize {
     let last = h.len() - 1;
     let g = g.min(last);
@@ -138,8 +138,10 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
 /// mirroring w flips every orientation). In a merge the new point is most
 /// often the nearest so far (its a⊥ key is the largest yet), which is then a
 /// push at the end, or lies strictly under the hull between its end points,
-/// which the end points' heights show (an upper hull over [w_min, w_max] is
-/// concave, so it is nowhere lower than its lower end).
+/// which the end points show (an upper hull over [w_min, w_max] is concave,
+/// so it is nowhere lower than its lower end, nor than the chord joining
+/// its ends): then the hull is unchanged, as the general insertion finds
+/// after a search.
 #[inline(always)]
 pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     let n = h.len();
@@ -158,8 +160,12 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
         h.push(q);
         return;
     }
-    if q.w > near.w && q.w < far.w && q.zz < far.zz.min(near.zz) {
-        return; // strictly under the hull
+    if q.w > near.w && q.w < far.w {
+        // strictly under the hull: under its lower end, or (exactly) under
+        // the chord between its end points, which it lies on or above
+        if q.zz < far.zz.min(near.zz) || !ccw_or_flat(near, far, q) {
+            return;
+        }
     }
     insert_ordered::<true>(h, q);
 }
