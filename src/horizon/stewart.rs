@@ -523,25 +523,29 @@ fn merge4(src: &[Rec], width: usize, dst: &mut [Rec], hulls: &mut [Hull; 3]) {
     hb.clear();
     hc.clear();
     let (mut i0, mut i1, mut j0, mut j1) = (0, 0, 0, 0);
+    // the runs' next a⊥ ranks, and the smaller of each pair
+    let (mut a0, mut a1, mut b0, mut b1) = (head(ll, 0), head(lr, 0), head(rl, 0), head(rr, 0));
+    let (mut x, mut y) = (a0.min(a1), b0.min(b1));
     for d in dst.iter_mut() {
-        let (a0, a1) = (head(ll, i0), head(lr, i1));
-        let (b0, b1) = (head(rl, j0), head(rr, j1));
         let mut r;
-        if a0.min(a1) < b0.min(b1) {
+        if x < y {
             // from node A's side of C: queries C's hull
             if a0 < a1 {
                 r = ll[i0];
                 i0 += 1;
+                a0 = head(ll, i0);
                 if !ha.h.is_empty() {
                     ha.query(&mut r);
                 }
             } else {
                 r = lr[i1];
                 i1 += 1;
+                a1 = head(lr, i1);
                 if i0 < ll.len() {
                     ha.add(r.p);
                 }
             }
+            x = a0.min(a1);
             if !hc.h.is_empty() {
                 hc.query(&mut r);
             }
@@ -550,17 +554,20 @@ fn merge4(src: &[Rec], width: usize, dst: &mut [Rec], hulls: &mut [Hull; 3]) {
             if b0 < b1 {
                 r = rl[j0];
                 j0 += 1;
+                b0 = head(rl, j0);
                 if !hb.h.is_empty() {
                     hb.query(&mut r);
                 }
             } else {
                 r = rr[j1];
                 j1 += 1;
+                b1 = head(rr, j1);
                 if j0 < rl.len() {
                     hb.add(r.p);
                 }
             }
-            if i0 < ll.len() || i1 < lr.len() {
+            y = b0.min(b1);
+            if x != u32::MAX {
                 hc.add(r.p);
             }
         }
