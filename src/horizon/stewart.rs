@@ -698,22 +698,29 @@ pub fn sector_with(
     w.dst.resize(n, w.src[0]);
     // The tree level by level from the leaves up, instead of point by point
     // from the root down (the same hulls meet the same queries, so the same
-    // answers): each level is one sequential pass, and only one hull is
+    // answers): two levels per sequential pass, with at most three hulls
     // live at a time, instead of one walk per point through nodes far
-    // apart in memory.
+    // apart in memory. The leaf blocks are computed by the first pass just
+    // before it merges them, while they are in cache.
     let levels = (n.div_ceil(BLOCK)).next_power_of_two().trailing_zeros() as usize + 1;
     let share = n / levels;
-    for (c, k) in w.src.chunks_mut(BLOCK).zip(w.kin.chunks(BLOCK)) {
-        leaf_block(c, k);
+    if n <= BLOCK {
+        leaf_block(&mut w.src, &w.kin);
     }
-    cancel.check()?;
     progress.add(share);
     let mut width = BLOCK;
     while width < n {
         // Two levels per pass while two remain, then the last one alone.
         let two = 2 * width < n;
         let span = if two { 4 * width } else { 2 * width };
-        for (s, d) in w.src.chunks(span).zip(w.dst.chunks_mut(span)) {
+        let chunks = w.src.chunks_mut(span).zip(w.kin.chunks(span));
+        for ((s, k), d) in chunks.zip(w.dst.chunks_mut(span)) {
+            if width == BLOCK {
+                for (c, k) in s.chunks_mut(BLOCK).zip(k.chunks(BLOCK)) {
+                    leaf_block(c, k);
+                }
+            }
+            let s = &*s;
             if s.len() <= width {
                 d.copy_from_slice(s);
             } else if two {
