@@ -21,10 +21,14 @@
 //! children produced (a merge sort on the first index over the leaves in
 //! second-index order), so each of its hulls receives the same inserts and
 //! the same queries in the same order as in the paper, and every point ends
-//! with the maximum over the same covering sets. A level is one sequential
-//! pass over the points with one hull live at a time, where the paper's walk
-//! meets one node per level far apart in memory. Hulls are sorted arrays
-//! (the paper's choice; their average size stays below two points).
+//! with the maximum over the same covering sets (the order in which a point
+//! meets its covering sets does not change that maximum: the comparison is
+//! exact and a tie goes to the nearer point, so equal candidates are equal
+//! projections). Two levels are one sequential pass over the points with
+//! three hulls live, where the paper's walk meets one node per level far
+//! apart in memory. Hulls are sorted arrays (the paper's choice; their
+//! average size stays below three points, though the queried ones are
+//! larger), searched from the node's previous answer.
 //!
 //! The near-vertex check of §IV-E is applied by the caller (see
 //! [`super::cms::near_vertex`]) when asked for.

@@ -381,7 +381,7 @@ fn tangent_from_any_guess_is_tangent() {
 fn atan2_f32_is_libm_rounded() {
     let mut r = rng(31);
     let mut unit = move || (r() >> 11) as f64 / (1u64 << 53) as f64;
-    let mut check = |y: f64, x: f64| {
+    let check = |y: f64, x: f64| {
         let (got, want) = (atan2_f32(y, x), y.atan2(x) as f32);
         assert!(
             got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
