@@ -24,6 +24,28 @@ pub fn orient(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> i32 {
     orient_exact(a, b, c)
 }
 
+/// The sign of [`orient`] when the filter alone decides it (`Some(true)`:
+/// positive, `Some(false)`: negative; `None`: ask [`orient`]). A caller
+/// that only needs one side of zero branches once on the rounded
+/// determinant instead of on a sign formed from it.
+#[inline(always)]
+pub fn orient_filtered(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bool> {
+    let detleft = (a.0 - c.0) * (b.1 - c.1);
+    let detright = (a.1 - c.1) * (b.0 - c.0);
+    let det = detleft - detright;
+    const ERR: f64 = (3.0 + 16.0 * f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
+    let bound = ERR * (detleft.abs() + detright.abs());
+    // det > bound ≥ 0 (or < −bound) is exactly orient's filter passing
+    // with that sign; everything else (|det| ≤ bound, NaN) goes to orient.
+    if det > bound {
+        Some(true)
+    } else if det < -bound {
+        Some(false)
+    } else {
+        None
+    }
+}
+
 #[inline]
 fn sign(x: f64) -> i32 {
     if x > 0.0 {

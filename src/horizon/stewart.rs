@@ -21,15 +21,19 @@
 //! children produced (a merge sort on the first index over the leaves in
 //! second-index order), so each of its hulls receives the same inserts and
 //! the same queries in the same order as in the paper, and every point ends
-//! with the maximum over the same covering sets. A level is one sequential
-//! pass over the points with one hull live at a time, where the paper's walk
-//! meets one node per level far apart in memory. Hulls are sorted arrays
-//! (the paper's choice; their average size stays below two points).
+//! with the maximum over the same covering sets (the order in which a point
+//! meets its covering sets does not change that maximum: the comparison is
+//! exact and a tie goes to the nearer point, so equal candidates are equal
+//! projections). Two levels are one sequential pass over the points with
+//! three hulls live, where the paper's walk meets one node per level far
+//! apart in memory. Hulls are sorted arrays (the paper's choice; their
+//! average size stays below three points, though the queried ones are
+//! larger), searched from the node's previous answer.
 //!
 //! The near-vertex check of §IV-E is applied by the caller (see
 //! [`super::cms::near_vertex`]) when asked for.
 
-use super::exact::orient;
+use super::exact::{orient, orient_filtered};
 use super::{better, elevation, project, Frame, Options, Progress, Proj, Terrain, EMPTY};
 use crate::cancel::Cancel;
 use crate::error::Result;
@@ -52,9 +56,81 @@ pub fn tangent(h: &[Proj], p: Proj) -> usize {
     lo
 }
 
-#[inline]
-fn o3(a: Proj, b: Proj, c: Proj) -> i32 {
-    orient((a.w, a.zz), (b.w, b.zz), (c.w, c.zz))
+/// [`tangent`] searched from a guess `g` (any index) instead of by
+/// bisection: the answer is the first i with `better(p, h[i], h[i + 1])`
+/// false, a predicate true then false along the hull, so stepping from `g`
+/// towards the change (by doubling strides, then bisecting the last stride)
+/// finds the same index. Two comparisons when `g` is the answer.
+#[inline(always)]
+pub fn tangent_from(h: &[Proj], p: Proj, g: usize) -> usize {
+    let last = h.len() - 1;
+    let g = g.min(last);
+    let up = |i: usize| better(p, h[i], h[i + 1]);
+    let (mut lo, mut hi); // the answer lies in lo..=hi
+    if g < last && up(g) {
+        // the answer is above g
+        lo = g + 1;
+        let mut step = 1;
+        loop {
+            if lo == last || !up(lo) {
+                return lo;
+            }
+            let next = (lo + step).min(last);
+            if next == last || !up(next) {
+                hi = next;
+                lo += 1;
+                break;
+            }
+            lo = next + 1;
+            step *= 2;
+        }
+    } else {
+        // the answer is g or below
+        hi = g;
+        let mut step = 1;
+        loop {
+            if hi == 0 || up(hi - 1) {
+                return hi;
+            }
+            hi -= 1;
+            let next = hi.saturating_sub(step);
+            if next == 0 || up(next - 1) {
+                lo = next;
+                break;
+            }
+            hi = next - 1;
+            step *= 2;
+        }
+    }
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if up(mid) {
+            lo = mid + 1;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// Do a, b, c turn clockwise or lie on a line (orientation ≤ 0)?
+#[inline(always)]
+fn cw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
+    let (a, b, c) = ((a.w, a.zz), (b.w, b.zz), (c.w, c.zz));
+    match orient_filtered(a, b, c) {
+        Some(pos) => !pos,
+        None => orient(a, b, c) <= 0,
+    }
+}
+
+/// Do a, b, c turn counter-clockwise or lie on a line (orientation ≥ 0)?
+#[inline(always)]
+fn ccw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
+    let (a, b, c) = ((a.w, a.zz), (b.w, b.zz), (c.w, c.zz));
+    match orient_filtered(a, b, c) {
+        Some(pos) => pos,
+        None => orient(a, b, c) >= 0,
+    }
 }
 
 /// Insert `q` into the strictly convex upper hull `h` (sorted by w).
@@ -66,9 +142,11 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
 /// mirroring w flips every orientation). In a merge the new point is most
 /// often the nearest so far (its a⊥ key is the largest yet), which is then a
 /// push at the end, or lies strictly under the hull between its end points,
-/// which the end points' heights show (an upper hull over [w_min, w_max] is
-/// concave, so it is nowhere lower than its lower end).
-#[inline]
+/// which the end points show (an upper hull over [w_min, w_max] is concave,
+/// so it is nowhere lower than its lower end, nor than the chord joining
+/// its ends): then the hull is unchanged, as the general insertion finds
+/// after a search.
+#[inline(always)]
 pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     let n = h.len();
     if n == 0 {
@@ -79,15 +157,19 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     if q.w < near.w {
         // a new nearest vertex: pop the vertices on or under segment q–h[k−2]
         let mut k = n;
-        while k >= 2 && o3(h[k - 2], h[k - 1], q) <= 0 {
+        while k >= 2 && cw_or_flat(h[k - 2], h[k - 1], q) {
             k -= 1;
         }
         h.truncate(k);
         h.push(q);
         return;
     }
-    if q.w > near.w && q.w < far.w && q.zz < far.zz.min(near.zz) {
-        return; // strictly under the hull
+    if q.w > near.w && q.w < far.w {
+        // strictly under the hull: under its lower end, or (exactly) under
+        // the chord between its end points, which it lies on or above
+        if q.zz < far.zz.min(near.zz) || !ccw_or_flat(near, far, q) {
+            return;
+        }
     }
     insert_ordered::<true>(h, q);
 }
@@ -96,7 +178,21 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
 /// decreasing w when `DESC` (every orientation then flips sign).
 #[inline]
 fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
-    let o = |a, b, c| if DESC { -o3(a, b, c) } else { o3(a, b, c) };
+    // orientation ≤ 0 and ≥ 0 in the hull's order (mirrored when DESC)
+    let le0 = |a, b, c| {
+        if DESC {
+            ccw_or_flat(a, b, c)
+        } else {
+            cw_or_flat(a, b, c)
+        }
+    };
+    let ge0 = |a, b, c| {
+        if DESC {
+            cw_or_flat(a, b, c)
+        } else {
+            ccw_or_flat(a, b, c)
+        }
+    };
     let n = h.len();
     let mut pos = h.partition_point(|v| if DESC { v.w > q.w } else { v.w < q.w });
     let mut end = pos; // h[pos..end] will be replaced by q
@@ -106,13 +202,13 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
         }
         end = pos + 1;
     }
-    if pos > 0 && end < n && o(h[pos - 1], h[end], q) <= 0 {
+    if pos > 0 && end < n && le0(h[pos - 1], h[end], q) {
         return; // on or below the hull
     }
-    while end + 1 < n && o(q, h[end], h[end + 1]) >= 0 {
+    while end + 1 < n && ge0(q, h[end], h[end + 1]) {
         end += 1;
     }
-    while pos >= 2 && o(h[pos - 2], h[pos - 1], q) >= 0 {
+    while pos >= 2 && ge0(h[pos - 2], h[pos - 1], q) {
         pos -= 1;
     }
     if end == pos {
@@ -232,6 +328,10 @@ struct Hull {
     wmin: f64,
     wmax: f64,
     zmax: f64,
+    /// The last tangent index found: consecutive queries of one node come
+    /// in a⊥ order and mostly share their answer (about 3 in 4 on a terrain
+    /// grid, most others one vertex off), so the next search starts there.
+    guess: usize,
 }
 
 impl Hull {
@@ -240,9 +340,10 @@ impl Hull {
         self.wmin = f64::INFINITY;
         self.wmax = f64::NEG_INFINITY;
         self.zmax = f64::NEG_INFINITY;
+        self.guess = 0;
     }
 
-    #[inline]
+    #[inline(always)]
     fn add(&mut self, q: Proj) {
         self.wmin = self.wmin.min(q.w);
         self.wmax = self.wmax.max(q.w);
@@ -268,8 +369,8 @@ impl Hull {
     }
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
-    #[inline]
-    fn query(&self, r: &mut Rec) {
+    #[inline(always)]
+    fn query(&mut self, r: &mut Rec) {
         let p = r.p;
         // Slope of the best so far (−∞: none): skip a hull that cannot beat
         // it without searching it.
@@ -281,7 +382,8 @@ impl Hull {
         if self.cannot_beat(p, bs) {
             return;
         }
-        r.best = pick(p, r.best, self.h[tangent(&self.h, p)]);
+        self.guess = tangent_from(&self.h, p, self.guess);
+        r.best = pick(p, r.best, self.h[self.guess]);
     }
 }
 
@@ -292,6 +394,7 @@ impl Default for Hull {
             wmin: 0.0,
             wmax: 0.0,
             zmax: 0.0,
+            guess: 0,
         };
         h.clear();
         h
@@ -315,6 +418,7 @@ pub struct Work {
     kin: Vec<u8>,
     dst: Vec<Rec>,
     hull: Hull,
+    hulls: [Hull; 3],
     /// The terrain (its key array and point count) and b⊥ vector of the
     /// sector these buffers last computed: `b` and `by_b` still hold its
     /// b⊥ keys and order. Cleared by [`release`] at the end of every
@@ -393,6 +497,86 @@ fn merge(src: &[Rec], mid: usize, dst: &mut [Rec], hull: &mut Hull) {
         o += 1;
     }
     dst[o..].copy_from_slice(&right[j..]);
+}
+
+/// a⊥ rank of `s[i]`, `u32::MAX` past the end.
+#[inline(always)]
+fn head(s: &[Rec], i: usize) -> u32 {
+    match s.get(i) {
+        Some(r) => r.a,
+        None => u32::MAX,
+    }
+}
+
+/// Two levels of the tree in one pass: `src` holds up to four runs of
+/// `width` points (subtrees LL, LR, RL, RR in rank order), each in a⊥ order.
+/// Merging LL with LR and RL with RR is [`merge`] at nodes A = (LL, LR) and
+/// B = (RL, RR); merging the two results is [`merge`] at their parent C.
+/// Here the three merges run as one, each point taken once from its run in
+/// a⊥ order and written once, with the three hulls live together: every
+/// hull sees the same inserts and queries in the same order as in two
+/// separate passes (a hull whose queries are all done takes no more
+/// points), and every point queries its lower node's hull before
+/// its upper node's, as there.
+fn merge4(src: &[Rec], width: usize, dst: &mut [Rec], hulls: &mut [Hull; 3]) {
+    let (ll, rest) = src.split_at(width.min(src.len()));
+    let (lr, rest) = rest.split_at(width.min(rest.len()));
+    let (rl, rr) = rest.split_at(width.min(rest.len()));
+    let [ha, hb, hc] = hulls;
+    ha.clear();
+    hb.clear();
+    hc.clear();
+    let (mut i0, mut i1, mut j0, mut j1) = (0, 0, 0, 0);
+    // the runs' next a⊥ ranks, and the smaller of each pair
+    let (mut a0, mut a1, mut b0, mut b1) = (head(ll, 0), head(lr, 0), head(rl, 0), head(rr, 0));
+    let (mut x, mut y) = (a0.min(a1), b0.min(b1));
+    for d in dst.iter_mut() {
+        let mut r;
+        if x < y {
+            // from node A's side of C: queries C's hull
+            if a0 < a1 {
+                r = ll[i0];
+                i0 += 1;
+                a0 = head(ll, i0);
+                if !ha.h.is_empty() {
+                    ha.query(&mut r);
+                }
+            } else {
+                r = lr[i1];
+                i1 += 1;
+                a1 = head(lr, i1);
+                if i0 < ll.len() {
+                    ha.add(r.p);
+                }
+            }
+            x = a0.min(a1);
+            if !hc.h.is_empty() {
+                hc.query(&mut r);
+            }
+        } else {
+            // from node B's side of C: joins C's hull
+            if b0 < b1 {
+                r = rl[j0];
+                j0 += 1;
+                b0 = head(rl, j0);
+                if !hb.h.is_empty() {
+                    hb.query(&mut r);
+                }
+            } else {
+                r = rr[j1];
+                j1 += 1;
+                b1 = head(rr, j1);
+                if j0 < rl.len() {
+                    hb.add(r.p);
+                }
+            }
+            y = b0.min(b1);
+            if x != u32::MAX {
+                hc.add(r.p);
+            }
+        }
+        *d = r;
+    }
 }
 
 /// One sector for every point (`plane` has one value per terrain point).
@@ -518,29 +702,41 @@ pub fn sector_with(
     w.dst.resize(n, w.src[0]);
     // The tree level by level from the leaves up, instead of point by point
     // from the root down (the same hulls meet the same queries, so the same
-    // answers): each level is one sequential pass, and only one hull is
+    // answers): two levels per sequential pass, with at most three hulls
     // live at a time, instead of one walk per point through nodes far
-    // apart in memory.
+    // apart in memory. The leaf blocks are computed by the first pass just
+    // before it merges them, while they are in cache.
     let levels = (n.div_ceil(BLOCK)).next_power_of_two().trailing_zeros() as usize + 1;
     let share = n / levels;
-    for (c, k) in w.src.chunks_mut(BLOCK).zip(w.kin.chunks(BLOCK)) {
-        leaf_block(c, k);
+    if n <= BLOCK {
+        leaf_block(&mut w.src, &w.kin);
     }
-    cancel.check()?;
     progress.add(share);
     let mut width = BLOCK;
     while width < n {
-        for (s, d) in w.src.chunks(2 * width).zip(w.dst.chunks_mut(2 * width)) {
-            if s.len() > width {
-                merge(s, width, d, &mut w.hull);
-            } else {
+        // Two levels per pass while two remain, then the last one alone.
+        let two = 2 * width < n;
+        let span = if two { 4 * width } else { 2 * width };
+        let chunks = w.src.chunks_mut(span).zip(w.kin.chunks(span));
+        for ((s, k), d) in chunks.zip(w.dst.chunks_mut(span)) {
+            if width == BLOCK {
+                for (c, k) in s.chunks_mut(BLOCK).zip(k.chunks(BLOCK)) {
+                    leaf_block(c, k);
+                }
+            }
+            let s = &*s;
+            if s.len() <= width {
                 d.copy_from_slice(s);
+            } else if two {
+                merge4(s, width, d, &mut w.hulls);
+            } else {
+                merge(s, width, d, &mut w.hull);
             }
         }
         std::mem::swap(&mut w.src, &mut w.dst);
-        width *= 2;
+        width = span;
         cancel.check()?;
-        progress.add(share);
+        progress.add(if two { 2 * share } else { share });
     }
     // w.src is now in a⊥ order: w.src[s].a == s.
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));

@@ -349,3 +349,77 @@ fn stewart_equals_brute_grid_consecutive_sectors() {
         assert!(same_bits(&a, &b), "s {s}");
     }
 }
+
+#[test]
+fn tangent_from_any_guess_is_tangent() {
+    // Hulls with collinear-free vertices on a small lattice (many exact ties
+    // of elevation, settled by distance), seen from points left of them.
+    let mut r = rng(23);
+    for _ in 0..300 {
+        let mut h = Vec::new();
+        for _ in 0..(1 + r() % 40) {
+            let q = Proj {
+                w: (r() % 40) as f64,
+                zz: (r() % 25) as f64,
+            };
+            stewart::insert(&mut h, q);
+        }
+        for _ in 0..20 {
+            let p = Proj {
+                w: -1.0 - (r() % 30) as f64,
+                zz: (r() % 60) as f64 - 20.0,
+            };
+            let want = stewart::tangent(&h, p);
+            for g in 0..h.len() + 3 {
+                assert_eq!(stewart::tangent_from(&h, p, g), want, "guess {g}");
+            }
+        }
+    }
+}
+
+#[test]
+fn atan2_f32_is_libm_rounded() {
+    let mut r = rng(31);
+    let mut unit = move || (r() >> 11) as f64 / (1u64 << 53) as f64;
+    let check = |y: f64, x: f64| {
+        let (got, want) = (atan2_f32(y, x), y.atan2(x) as f32);
+        assert!(
+            got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+            "atan2({y:e}, {x:e}): {got:e} != {want:e}"
+        );
+    };
+    for _ in 0..400_000 {
+        // wide magnitudes, both signs, near-equal legs (u near 1)
+        let x = 10f64.powf(unit() * 40.0 - 20.0);
+        let y = (unit() - 0.5) * 10f64.powf(unit() * 40.0 - 20.0);
+        check(y, x);
+        check(x * (1.0 + (unit() - 0.5) * 1e-6), x);
+        check(-x, x * (1.0 + (unit() - 0.5) * 1e-9));
+        // grid-like integer legs (terrain heights over sample distances)
+        let (a, b) = (
+            (unit() * 2000.0).floor() - 1000.0,
+            (unit() * 1500.0).floor() + 1.0,
+        );
+        check(a, b);
+        check(a * 0.25, b);
+    }
+    for (y, x) in [
+        (0.0, 1.0),
+        (-0.0, 1.0),
+        (1.0, 1.0),
+        (-1.0, 1.0),
+        (5e-324, 1.0),
+        (1.0, 5e-324),
+        (1e-300, 1e300),
+        (f64::MAX, 1.0),
+        (1.0, f64::MAX),
+        (f64::INFINITY, 1.0),
+        (1.0, f64::INFINITY),
+        (f64::NAN, 1.0),
+        (1.0, 0.0),
+        (1.0, -2.0),
+        (0.0, 0.0),
+    ] {
+        check(y, x);
+    }
+}
