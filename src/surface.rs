@@ -57,7 +57,8 @@ pub trait HeightField: Sync {
     fn domain(&self) -> Domain;
 
     /// Evaluate f, f_u, f_v at many points (the batch form lets callable
-    /// sources make one call per batch). `out.len() == u.len() == v.len()`.
+    /// sources make one call per batch). `out.len() == u.len() == v.len()`;
+    /// every element of `out` is written (NaN where f is undefined).
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]);
 
     /// Evaluate at one point.

@@ -173,7 +173,7 @@ pub struct ColumnScratch {
     jobs: Vec<super::refine::Job>,
     seeds: Vec<super::refine::SeedJob>,
     spans: Vec<super::refine::SpanSeed>,
-    ortho: super::refine::OrthoScratch,
+    ortho: super::refine::NewtonScratch,
     ahead: Box<Ahead>,
     batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,

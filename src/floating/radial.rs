@@ -777,19 +777,6 @@ struct BinJob {
     side: i8,
 }
 
-/// Reusable buffers of [`RadialSweep::solve`] (indices into the jobs).
-#[derive(Debug, Default)]
-struct SolveScratch {
-    lam: Vec<f64>,
-    active: Vec<u32>,
-    next: Vec<u32>,
-    live: Vec<u32>,
-    failed: Vec<u32>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    hs: Vec<HeightSample>,
-}
-
 struct RadialSweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
     eh: DVec2,
@@ -802,7 +789,9 @@ struct RadialSweep<'c, 'a> {
     stats: ColumnStats,
     jobs: Vec<BinJob>,
     /// Buffers of the batched solve.
-    solver: SolveScratch,
+    solver: super::refine::NewtonScratch,
+    /// The jobs whose Newton failed (indices), for the march.
+    failed: Vec<u32>,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
     ahead: Ahead,
@@ -834,7 +823,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
             jobs: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
-            solver: SolveScratch::default(),
+            solver: Default::default(),
+            failed: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
             batch: Vec::new(),
@@ -1258,7 +1248,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     }
 
     /// The batched exact solve of the bin's pixels (Newton on the pixel's
-    /// ray as [`super::refine::solve`] does, all from the eye), with a march
+    /// ray, [`super::refine::newton`], all from the eye), with a march
     /// along the ray for those Newton could not settle (the pixel's ray is
     /// up to half a pixel off the bin's plane, so its seed can be poor at
     /// grazing).
@@ -1268,79 +1258,26 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
         let ctx = self.ctx;
         let (e, d) = (ctx.cam.eye, ctx.cam.d);
-        let dom = ctx.frame.domain;
-        let tol = ctx.opts.refine_tol;
-        let sc = &mut self.solver;
         let jobs = &self.jobs;
-        sc.lam.clear();
-        sc.lam.extend(jobs.iter().map(|j| j.lam));
-        sc.active.clear();
-        sc.active.extend(0..jobs.len() as u32);
-        sc.failed.clear();
-        let mut evals = 0u64;
-        for _ in 0..ctx.opts.refine_iters {
-            if sc.active.is_empty() {
-                break;
-            }
-            sc.u.clear();
-            sc.v.clear();
-            sc.live.clear();
-            for &k in &sc.active {
-                let j = &jobs[k as usize];
-                let p = e + sc.lam[k as usize] * j.dir;
-                if dom.contains(p.x, p.y) {
-                    sc.u.push(p.x);
-                    sc.v.push(p.y);
-                    sc.live.push(k);
-                } else {
-                    sc.failed.push(k);
-                }
-            }
-            sc.hs.clear();
-            sc.hs.resize(sc.live.len(), HeightSample::default());
-            ctx.field.eval_batch(&sc.u, &sc.v, &mut sc.hs);
-            evals += sc.live.len() as u64;
-            sc.next.clear();
-            for (n, &k) in sc.live.iter().enumerate() {
-                let j = &jobs[k as usize];
-                let h = sc.hs[n];
-                let lam = sc.lam[k as usize];
-                let p = e + lam * j.dir;
-                if !h.is_finite() {
-                    sc.failed.push(k);
-                    continue;
-                }
-                let g = p.z - h.f;
-                let gp = j.dir.z - (h.fu * j.dir.x + h.fv * j.dir.y);
-                if gp == 0.0 || !gp.is_finite() {
-                    sc.failed.push(k);
-                    continue;
-                }
-                let dl = g / gp;
-                let l = lam - dl;
-                if !(l >= j.lo && l <= j.hi) {
-                    sc.failed.push(k);
-                    continue;
-                }
-                sc.lam[k as usize] = l;
-                if dl.abs() <= tol * j.fp {
-                    let q = e + l * j.dir;
-                    if !dom.contains(q.x, q.y) {
-                        sc.failed.push(k);
-                        continue;
-                    }
-                    let depth = (q - e).dot(d);
-                    let px = &mut self.out[j.slot as usize].1;
-                    super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), &h);
-                } else {
-                    sc.next.push(k);
-                }
-            }
-            std::mem::swap(&mut sc.active, &mut sc.next);
-        }
+        let out = &mut self.out;
+        let evals = super::refine::newton(
+            ctx,
+            jobs.len(),
+            |k| jobs[k].lam,
+            |k| (e, jobs[k].dir),
+            |k| (jobs[k].lo, jobs[k].hi, jobs[k].fp),
+            &mut self.solver,
+            |k, _, q, h| {
+                let j = &jobs[k];
+                let depth = (q - e).dot(d);
+                let px = &mut out[j.slot as usize].1;
+                super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), h);
+            },
+        );
         self.stats.refine_evals += evals;
-        let mut failed = std::mem::take(&mut self.solver.failed);
-        failed.extend_from_slice(&self.solver.active);
+        let mut failed = std::mem::take(&mut self.failed);
+        failed.clear();
+        failed.extend_from_slice(self.solver.failed());
         failed.sort_unstable();
         for &k in &failed {
             let j = self.jobs[k as usize];
@@ -1366,7 +1303,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 }
             }
         }
-        self.solver.failed = failed;
+        self.failed = failed;
     }
 
     /// §5 corrections between samples a and b: the spans up to the last

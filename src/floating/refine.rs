@@ -23,54 +23,64 @@ pub struct Job {
     pub fp: f64,
 }
 
-/// Buffers of [`solve_with`], reused from call to call.
+/// Buffers of the batched Newton ([`newton`]), reused from call to call.
 #[derive(Debug, Default)]
-pub struct SolveScratch {
+pub struct NewtonScratch {
     lam: Vec<f64>,
-    active: Vec<usize>,
-    next: Vec<usize>,
-    live: Vec<usize>,
-    failed: Vec<usize>,
+    active: Vec<u32>,
+    next: Vec<u32>,
+    live: Vec<u32>,
     u: Vec<f64>,
     v: Vec<f64>,
     hs: Vec<HeightSample>,
+    failed: Vec<u32>,
 }
 
-/// Solve `jobs`, updating `out[job.slot]` for each success; returns the
-/// slots that failed (left with their interpolated values) and the number
-/// of evaluations made.
-pub fn solve(ctx: &Ctx<'_>, jobs: &[Job], out: &mut [Pixel]) -> (Vec<usize>, u64) {
-    let mut sc = SolveScratch::default();
-    let (_, evals) = solve_with(ctx, jobs, out, &mut sc);
-    (sc.failed, evals)
+impl NewtonScratch {
+    /// The jobs that failed in the last [`newton`] (in the order they
+    /// failed).
+    pub(crate) fn failed(&self) -> &[u32] {
+        &self.failed
+    }
 }
 
-/// [`solve`] with reused buffers: the failed slots are returned as a view
-/// of `sc`.
-pub fn solve_with<'s>(
+/// The batched Newton on pixel rays shared by every caller: job k's ray is
+/// `ray(k)` = (origin, direction), its seed `seed(k)`, its bracket and
+/// pixel footprint `bracket(k)` = (lo, hi, fp). Each round evaluates the
+/// live jobs in one batch and steps λ ← λ − h/h' with h(λ) = w_ray(λ) −
+/// f(u_ray(λ), v_ray(λ)); a job is done when its step is under `refine_tol`
+/// footprints (`hit(k, λ, point, sample)`, the sample taken at the
+/// previous iterate), and fails (listed in [`NewtonScratch::failed`]) when
+/// it leaves the domain or its bracket, meets a non-finite value or a flat
+/// h, or is still moving after `refine_iters` rounds. Returns the number of
+/// evaluations.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn newton(
     ctx: &Ctx<'_>,
-    jobs: &[Job],
-    out: &mut [Pixel],
-    sc: &'s mut SolveScratch,
-) -> (&'s [usize], u64) {
+    n: usize,
+    seed: impl Fn(usize) -> f64,
+    ray: impl Fn(usize) -> (DVec3, DVec3),
+    bracket: impl Fn(usize) -> (f64, f64, f64),
+    sc: &mut NewtonScratch,
+    mut hit: impl FnMut(usize, f64, DVec3, &HeightSample),
+) -> u64 {
     let dom = ctx.frame.domain;
-    let d = ctx.cam.d;
-    let SolveScratch {
+    let NewtonScratch {
         lam,
         active,
         next,
         live,
-        failed,
         u,
         v,
         hs,
+        failed,
     } = sc;
-    lam.clear();
-    lam.extend(jobs.iter().map(|j| j.lam));
-    active.clear();
-    active.extend(0..jobs.len());
     failed.clear();
-    next.clear();
+    lam.clear();
+    lam.extend((0..n).map(&seed));
+    active.clear();
+    active.extend(0..n as u32);
     let mut evals = 0u64;
     for _ in 0..ctx.opts.refine_iters {
         if active.is_empty() {
@@ -80,67 +90,101 @@ pub fn solve_with<'s>(
         v.clear();
         live.clear();
         for &k in active.iter() {
-            let p = jobs[k].o + lam[k] * jobs[k].dir;
+            let (o, dir) = ray(k as usize);
+            let p = o + lam[k as usize] * dir;
             if dom.contains(p.x, p.y) {
                 u.push(p.x);
                 v.push(p.y);
                 live.push(k);
             } else {
-                failed.push(jobs[k].slot);
+                failed.push(k);
             }
         }
-        hs.clear();
-        hs.resize(live.len(), HeightSample::default());
+        // Grown only: a height field's batch writes every element.
+        if hs.len() < live.len() {
+            hs.resize(live.len(), HeightSample::default());
+        }
+        let hs = &mut hs[..live.len()];
         ctx.field.eval_batch(u, v, hs);
         evals += live.len() as u64;
         next.clear();
-        for (n, &k) in live.iter().enumerate() {
-            let j = &jobs[k];
-            let h = hs[n];
-            let p = j.o + lam[k] * j.dir;
+        for (i, &k) in live.iter().enumerate() {
+            let k = k as usize;
+            let h = hs[i];
+            let (o, dir) = ray(k);
+            let (lo, hi, fp) = bracket(k);
+            let p = o + lam[k] * dir;
             if !h.is_finite() {
-                failed.push(j.slot);
+                failed.push(k as u32);
                 continue;
             }
             let g = p.z - h.f;
-            let gp = j.dir.z - (h.fu * j.dir.x + h.fv * j.dir.y);
+            let gp = dir.z - (h.fu * dir.x + h.fv * dir.y);
             if gp == 0.0 || !gp.is_finite() {
-                failed.push(j.slot);
+                failed.push(k as u32);
                 continue;
             }
             let dl = g / gp;
             let l = lam[k] - dl;
-            if !(l >= j.lo && l <= j.hi) {
-                failed.push(j.slot);
+            if !(l >= lo && l <= hi) {
+                failed.push(k as u32);
                 continue;
             }
             lam[k] = l;
-            if dl.abs() <= ctx.opts.refine_tol * j.fp {
-                let q = j.o + l * j.dir;
+            if dl.abs() <= ctx.opts.refine_tol * fp {
+                let q = o + l * dir;
                 if !dom.contains(q.x, q.y) {
-                    failed.push(j.slot);
+                    failed.push(k as u32);
                     continue;
                 }
-                let depth = if ctx.cam.perspective {
-                    (q - ctx.cam.eye).dot(d)
-                } else {
-                    l
-                };
-                finish(
-                    ctx,
-                    &mut out[j.slot],
-                    j.dir,
-                    depth,
-                    DVec2::new(q.x, q.y),
-                    &h,
-                );
+                hit(k, l, q, &h);
             } else {
-                next.push(k);
+                next.push(k as u32);
             }
         }
         std::mem::swap(active, next);
     }
-    failed.extend(active.iter().map(|&k| jobs[k].slot));
+    failed.extend_from_slice(active);
+    evals
+}
+
+/// Buffers of [`solve_with`], reused from call to call.
+#[derive(Debug, Default)]
+pub struct SolveScratch {
+    newton: NewtonScratch,
+    failed: Vec<usize>,
+}
+
+/// Solve `jobs` (the generic sweep's pixels), updating `out[job.slot]` for
+/// each success; returns the slots that failed (left with their
+/// interpolated values; a view of `sc`) and the number of evaluations.
+pub fn solve_with<'s>(
+    ctx: &Ctx<'_>,
+    jobs: &[Job],
+    out: &mut [Pixel],
+    sc: &'s mut SolveScratch,
+) -> (&'s [usize], u64) {
+    let (eye, d) = (ctx.cam.eye, ctx.cam.d);
+    let evals = newton(
+        ctx,
+        jobs.len(),
+        |k| jobs[k].lam,
+        |k| (jobs[k].o, jobs[k].dir),
+        |k| (jobs[k].lo, jobs[k].hi, jobs[k].fp),
+        &mut sc.newton,
+        |k, l, q, h| {
+            let j = &jobs[k];
+            let depth = if ctx.cam.perspective {
+                (q - eye).dot(d)
+            } else {
+                l
+            };
+            finish(ctx, &mut out[j.slot], j.dir, depth, DVec2::new(q.x, q.y), h);
+        },
+    );
+    let failed = &mut sc.failed;
+    failed.clear();
+    failed.extend(sc.newton.failed().iter().map(|&k| jobs[k as usize].slot));
     failed.sort_unstable();
     (failed, evals)
 }
@@ -209,19 +253,7 @@ pub(crate) struct Direct<'a, 'b> {
     pub(crate) width: usize,
 }
 
-/// Buffers of [`solve_ortho`], reused from call to call.
-#[derive(Debug, Default)]
-pub struct OrthoScratch {
-    lam: Vec<f64>,
-    active: Vec<u32>,
-    next: Vec<u32>,
-    live: Vec<u32>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    hs: Vec<HeightSample>,
-}
-
-/// [`solve`] for the pixels of orthographic column `col` seeded by their
+/// [`solve_with`] for the pixels of orthographic column `col` seeded by their
 /// spans: the same Newton steps (bit for bit), with the ray origins computed
 /// from the rows and each pixel written once, when its solve ends (an
 /// exact hit, or its span's interpolation should the solve fail): into
@@ -234,7 +266,7 @@ pub(crate) fn solve_ortho(
     spans: &[SpanSeed],
     out: &mut [Pixel],
     direct: Option<&Direct<'_, '_>>,
-    sc: &mut OrthoScratch,
+    sc: &mut NewtonScratch,
 ) -> (u64, u64) {
     let put = |out: &mut [Pixel], slot: u32, px: Pixel| match direct {
         // SAFETY: the caller of `render_column_with` guarantees that no
@@ -243,11 +275,9 @@ pub(crate) fn solve_ortho(
         None => out[slot as usize] = px,
     };
     let cam = ctx.cam;
-    let dom = ctx.frame.domain;
     let d = cam.d;
     let normal = ctx.opts.shading == ShadingMode::Normal;
     let fp = ctx.frame.pixel;
-    let tol = ctx.opts.refine_tol * fp;
     // The ray origin of row i: what `Camera::ray` gives, the column's part
     // hoisted.
     let (xs, _) = cam.pixel_to_screen(0.0, col);
@@ -256,117 +286,53 @@ pub(crate) fn solve_ortho(
         let (_, ys) = cam.pixel_to_screen(slot as f64, col);
         base + (ys * cam.pixel) * cam.up
     };
-    let mut fails = 0u64;
-    let mut fail = |j: &SeedJob, out: &mut [Pixel]| {
-        let s = &spans[j.span as usize];
-        let mut px = s.pixel(j.tau, j.lam);
+    let evals = newton(
+        ctx,
+        jobs.len(),
+        |k| jobs[k].lam,
+        |k| (origin(jobs[k].slot), d),
+        |k| {
+            let s = &spans[jobs[k].span as usize];
+            (s.lo, s.hi, fp)
+        },
+        sc,
+        |k, l, q, h| {
+            let j = &jobs[k];
+            let s = &spans[j.span as usize];
+            let nrm = h.normal();
+            let c = -d.dot(nrm);
+            let side = if c > 0.0 {
+                1
+            } else if c < 0.0 {
+                -1
+            } else {
+                s.topo
+            };
+            let inten = if normal {
+                ctx.shading.intensity(nrm, -d)
+            } else {
+                s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
+            };
+            let px = Pixel {
+                set: true,
+                side,
+                depth: l,
+                n: nrm,
+                uv: DVec2::new(q.x, q.y),
+                inten,
+                cover: 1.0,
+            };
+            put(out, j.slot, px);
+        },
+    );
+    // The failed pixels keep their span's interpolation.
+    for &k in sc.failed() {
+        let j = &jobs[k as usize];
+        let mut px = spans[j.span as usize].pixel(j.tau, j.lam);
         if normal {
             px.inten = ctx.shading.intensity(px.n, -d);
         }
         put(out, j.slot, px);
-        fails += 1;
-    };
-    let OrthoScratch {
-        lam,
-        active,
-        next,
-        live,
-        u,
-        v,
-        hs,
-    } = sc;
-    lam.clear();
-    lam.extend(jobs.iter().map(|j| j.lam));
-    active.clear();
-    active.extend(0..jobs.len() as u32);
-    let mut evals = 0u64;
-    for _ in 0..ctx.opts.refine_iters {
-        if active.is_empty() {
-            break;
-        }
-        u.clear();
-        v.clear();
-        live.clear();
-        for &k in active.iter() {
-            let j = &jobs[k as usize];
-            let p = origin(j.slot) + lam[k as usize] * d;
-            if dom.contains(p.x, p.y) {
-                u.push(p.x);
-                v.push(p.y);
-                live.push(k);
-            } else {
-                fail(j, out);
-            }
-        }
-        // Grown only (no clearing per batch).
-        if hs.len() < live.len() {
-            hs.resize(live.len(), HeightSample::default());
-        }
-        let hs = &mut hs[..live.len()];
-        ctx.field.eval_batch(u, v, hs);
-        evals += live.len() as u64;
-        next.clear();
-        for (n, &k) in live.iter().enumerate() {
-            let j = &jobs[k as usize];
-            let s = &spans[j.span as usize];
-            let h = hs[n];
-            let o = origin(j.slot);
-            let p = o + lam[k as usize] * d;
-            if !h.is_finite() {
-                fail(j, out);
-                continue;
-            }
-            let g = p.z - h.f;
-            let gp = d.z - (h.fu * d.x + h.fv * d.y);
-            if gp == 0.0 || !gp.is_finite() {
-                fail(j, out);
-                continue;
-            }
-            let dl = g / gp;
-            let l = lam[k as usize] - dl;
-            if !(l >= s.lo && l <= s.hi) {
-                fail(j, out);
-                continue;
-            }
-            lam[k as usize] = l;
-            if dl.abs() <= tol {
-                let q = o + l * d;
-                if !dom.contains(q.x, q.y) {
-                    fail(j, out);
-                    continue;
-                }
-                let nrm = h.normal();
-                let c = -d.dot(nrm);
-                let side = if c > 0.0 {
-                    1
-                } else if c < 0.0 {
-                    -1
-                } else {
-                    s.topo
-                };
-                let inten = if normal {
-                    ctx.shading.intensity(nrm, -d)
-                } else {
-                    s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
-                };
-                let px = Pixel {
-                    set: true,
-                    side,
-                    depth: l,
-                    n: nrm,
-                    uv: DVec2::new(q.x, q.y),
-                    inten,
-                    cover: 1.0,
-                };
-                put(out, j.slot, px);
-            } else {
-                next.push(k);
-            }
-        }
-        std::mem::swap(active, next);
     }
-    for &k in active.iter() {
-        fail(&jobs[k as usize], out);
-    }
-    (fails, evals)
+    (sc.failed().len() as u64, evals)
 }
