@@ -377,18 +377,30 @@ impl Program {
                 return;
             }
         }
-        self.run_chunk_impl(regs, n, stride)
+        self.run_chunk_impl::<0>(regs, n, stride)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn run_chunk_avx2(&self, regs: &mut [f64], n: usize, stride: usize) {
-        self.run_chunk_impl(regs, n, stride)
+        if stride == 4 {
+            self.run_chunk_impl::<4>(regs, n, stride)
+        } else {
+            self.run_chunk_impl::<0>(regs, n, stride)
+        }
     }
 
+    /// One pass of the tape over `n` points in slots `stride` apart. With
+    /// `W` > 0 (`stride` == `W`), all `W` lanes are computed whatever `n`:
+    /// the loops then have a length known at compile time (no loop set-up
+    /// per instruction, which dominates small batches such as the sweeps'
+    /// look-ahead), and each lane's arithmetic is the same as in the
+    /// general pass (the extra lanes are never read).
     #[inline(always)]
-    fn run_chunk_impl(&self, regs: &mut [f64], n: usize, stride: usize) {
+    fn run_chunk_impl<const W: usize>(&self, regs: &mut [f64], n: usize, stride: usize) {
         debug_assert!(regs.len() >= self.nslots * stride && n <= stride);
+        debug_assert!(W == 0 || stride == W);
+        let n = if W > 0 { W } else { n };
         let base = regs.as_mut_ptr();
         for ins in &self.instrs {
             // SAFETY: slots are disjoint stride-long ranges of `regs`, and
