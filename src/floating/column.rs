@@ -798,14 +798,23 @@ impl<'c, 'a> Sweep<'c, 'a> {
             };
             let cam = self.ctx.cam;
             let dd = cam.d.dot(cam.d);
-            let fast = self.ctx.refine && dd > 0.0 && self.fine.is_none();
-            if let (Some(c), true) = (&cubic, fast) {
+            if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
                 // The common orthographic case, every pixel queued for its
                 // exact solve and written once when it ends
                 // ([`super::refine::solve_ortho`]): its seed depth and its
-                // weight in the span, the span's values kept once.
+                // weight in the span, the span's values kept once. With
+                // coverage the interpolated pixel is also put in the column
+                // at once, for the §6.4 edge pass of the spans to come.
                 let fp = fr.pixel;
                 let span = (a.z - b.z).abs();
+                let seed = super::refine::SpanSeed {
+                    topo,
+                    lo: a.z.min(b.z) - 2.0 * fp - span,
+                    hi: a.z.max(b.z) + 2.0 * fp + span,
+                    n: [a.n, b.n],
+                    uv: [a.uv, b.uv],
+                    inten: [a.inten, b.inten],
+                };
                 let k = self.spans.len() as u32;
                 let mut queued = false;
                 for i in i0..=i1 {
@@ -817,63 +826,20 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
                         continue;
                     };
+                    let lam = t * fr.d_t + w * fr.d_w;
+                    if self.fine.is_some() {
+                        out[i as usize] = seed.pixel(tau, lam);
+                    }
                     self.seeds.push(super::refine::SeedJob {
                         slot: i as u32,
                         span: k,
                         tau,
-                        lam: t * fr.d_t + w * fr.d_w,
+                        lam,
                     });
                     queued = true;
                 }
                 if queued {
-                    self.spans.push(super::refine::SpanSeed {
-                        topo,
-                        lo: a.z.min(b.z) - 2.0 * fp - span,
-                        hi: a.z.max(b.z) + 2.0 * fp + span,
-                        n: [a.n, b.n],
-                        uv: [a.uv, b.uv],
-                        inten: [a.inten, b.inten],
-                    });
-                }
-            } else if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
-                // The common orthographic case, every pixel queued for its
-                // exact solve: what `pixel` and `queue` do, with the span's
-                // and the column's constants hoisted.
-                let (xs, _) = cam.pixel_to_screen(0.0, self.col);
-                let base = cam.eye + (xs * cam.pixel) * cam.r;
-                let fp = fr.pixel;
-                let span = (a.z - b.z).abs();
-                let lo_j = a.z.min(b.z) - 2.0 * fp - span;
-                let hi_j = a.z.max(b.z) + 2.0 * fp + span;
-                for i in i0..=i1 {
-                    let row = i as f64;
-                    if self.cov.contains(row) {
-                        continue;
-                    }
-                    let Some((tau, t, w)) = c.at(row) else {
-                        out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
-                        continue;
-                    };
-                    let z = t * fr.d_t + w * fr.d_w;
-                    out[i as usize] = Pixel {
-                        set: true,
-                        side: topo,
-                        depth: z,
-                        n: a.n.lerp(b.n, tau).normalize_or(a.n),
-                        uv: a.uv.lerp(b.uv, tau),
-                        inten: a.inten + tau * (b.inten - a.inten),
-                        cover: 1.0,
-                    };
-                    let (_, ys) = cam.pixel_to_screen(row, self.col);
-                    self.jobs.push(super::refine::Job {
-                        slot: i as usize,
-                        o: base + (ys * cam.pixel) * cam.up,
-                        dir: cam.d,
-                        lam: z,
-                        lo: lo_j,
-                        hi: hi_j,
-                        fp,
-                    });
+                    self.spans.push(seed);
                 }
             } else {
                 for i in i0..=i1 {

@@ -220,7 +220,7 @@ impl SpanSeed {
     /// The interpolated pixel at weight `tau` towards the span's end, at
     /// depth `z` (§4.2).
     #[inline]
-    fn pixel(&self, tau: f64, z: f64) -> Pixel {
+    pub(super) fn pixel(&self, tau: f64, z: f64) -> Pixel {
         Pixel {
             set: true,
             side: self.topo,
