@@ -7,21 +7,26 @@
 /// counter-clockwise, negative if clockwise, zero if exactly collinear.
 #[inline]
 pub fn orient(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> i32 {
-    let detleft = (a.0 - c.0) * (b.1 - c.1);
-    let detright = (a.1 - c.1) * (b.0 - c.0);
-    let det = detleft - detright;
-    // Shewchuk's filter without branches on the operands' signs: when
-    // detleft and detright differ in sign (or one is zero) there is no
-    // cancellation and |det| = |detleft| + |detright| exceeds the bound, so
-    // the one test below covers his three cases (the signs of the rounded
-    // differences and products are exact). Both zero: det = 0 exactly.
-    // (3 + 16ε)ε with ε = 2^-53 (Shewchuk's ccwerrboundA).
-    const ERR: f64 = (3.0 + 16.0 * f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
-    let bound = ERR * (detleft.abs() + detright.abs());
+    let (det, bound) = det_bound(a, b, c);
     if det.abs() > bound || bound == 0.0 {
         return (det > 0.0) as i32 - (det < 0.0) as i32;
     }
     orient_exact(a, b, c)
+}
+
+/// The rounded determinant of [`orient`] and the bound on its error.
+/// Shewchuk's filter without branches on the operands' signs: when detleft
+/// and detright differ in sign (or one is zero) there is no cancellation
+/// and |det| = |detleft| + |detright| exceeds the bound, so one test covers
+/// his three cases (the signs of the rounded differences and products are
+/// exact). Both zero: det = 0 exactly (bound 0).
+#[inline(always)]
+fn det_bound(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> (f64, f64) {
+    let detleft = (a.0 - c.0) * (b.1 - c.1);
+    let detright = (a.1 - c.1) * (b.0 - c.0);
+    // (3 + 16ε)ε with ε = 2^-53 (Shewchuk's ccwerrboundA).
+    const ERR: f64 = (3.0 + 16.0 * f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
+    (detleft - detright, ERR * (detleft.abs() + detright.abs()))
 }
 
 /// The sign of [`orient`] when the filter alone decides it (`Some(true)`:
@@ -30,11 +35,7 @@ pub fn orient(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> i32 {
 /// determinant instead of on a sign formed from it.
 #[inline(always)]
 pub fn orient_filtered(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bool> {
-    let detleft = (a.0 - c.0) * (b.1 - c.1);
-    let detright = (a.1 - c.1) * (b.0 - c.0);
-    let det = detleft - detright;
-    const ERR: f64 = (3.0 + 16.0 * f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
-    let bound = ERR * (detleft.abs() + detright.abs());
+    let (det, bound) = det_bound(a, b, c);
     // det > bound ≥ 0 (or < −bound) is exactly orient's filter passing
     // with that sign; everything else (|det| ≤ bound, NaN) goes to orient.
     if det > bound {
