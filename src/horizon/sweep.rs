@@ -22,11 +22,11 @@
 //! line. The distances along the direction are tabulated per step, and the
 //! top of each line's hull stack stays in registers while the line is walked.
 //!
-//! On x86-64 with AVX2, lines along the rows are instead walked four
-//! neighbours at a time in the lanes of f64 vectors, whole lines at once
-//! (each lane its own row and stack): the data-dependent pop loop then
-//! branches once per four cells. The values are bit-identical to the
-//! one-line walk's (same operations per lane, no FMA).
+//! On x86-64 with AVX2 the lines are instead walked four neighbours at a
+//! time in the lanes of f64 vectors, each lane with its own stack (see
+//! `lines_avx2`): the data-dependent pop loop then branches once per four
+//! cells. The values are bit-identical to the one-line walk's (same
+//! operations per lane, no FMA).
 //!
 //! With `max_distance`, the cells ahead are scanned up to that distance
 //! along the line (no hull).
@@ -138,6 +138,12 @@ const CHUNK: usize = 16;
 /// while the rows touched stay few.
 const CHUNK_ROWS: usize = 4;
 
+/// Groups of four lines walked together by the 4-lane walk when the lines
+/// run along the columns (256 lines: two KiB of one row of the grid per
+/// step, measured faster than 64 or 128 lines, and than 1024).
+#[cfg(target_arch = "x86_64")]
+const LANE_GROUPS: usize = 64;
+
 /// A step of the lines of one direction (in walking order).
 #[derive(Clone, Copy)]
 struct Step {
@@ -245,26 +251,26 @@ unsafe fn load4(p: *const f64, i: std::arch::x86_64::__m256i) -> std::arch::x86_
     )
 }
 
-/// Every line of one direction along the rows walked four at a time, one
-/// line per lane of 4-wide f64 vectors (AVX2), each from its far end to its
-/// near end with its own hull stack: the pop loop runs while any lane pops,
-/// so its unpredictable exit is taken once per four cells. The four lines
-/// are neighbours, each lane reading and writing its own row forwards (four
-/// sequential streams), so a whole line is walked at once and the four
-/// stacks stay in cache. Per lane the operations and their order are those
-/// of [`walk`] (no FMA), so the slopes are bit-identical.
-///
-/// (Lines along the columns keep the one-line walk: there a whole line per
-/// group steps through a new row, and a new page, at every cell, and the
-/// blocked one-line walk measured faster.)
+/// Every line of one direction walked four at a time, one line per lane of
+/// 4-wide f64 vectors (AVX2), each from its far end to its near end with
+/// its own hull stack: the pop loop runs while any lane pops, so its
+/// unpredictable exit is taken once per four cells. Each lane keeps its top
+/// vertex t and the vertex p below it in registers, so the pop test needs
+/// no load; the vertex below p is read ahead, off the chain of comparisons.
+/// The four lines are neighbours: with the lines along the rows each lane
+/// reads and writes its own row forwards (four sequential streams) and a
+/// whole line is walked at once; along the columns (`ADJ`) the group's
+/// cells at one step are adjacent, read and written as one vector. Per lane
+/// the operations and their order are those of [`walk`] (no FMA), so the
+/// slopes are bit-identical.
 ///
 /// # Safety
 /// The CPU has AVX2; `steps` are the direction's steps in walking order,
-/// with the cells as in `walk`.
+/// with the cells as in `walk`; `sv` = 1 when `ADJ`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn lines_avx2<const CURV: bool>(
+unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     z: &[f64],
     out: &mut [f32],
     steps: &[Step],
@@ -278,13 +284,23 @@ unsafe fn lines_avx2<const CURV: bool>(
     use std::arch::x86_64::*;
     let zp = z.as_ptr();
     let op = out.as_mut_ptr();
-    // the stacks of the group's four lines: lane i's distances at
-    // st[2i·cap ..], its heights at st[(2i + 1)·cap ..]
+    // Groups of four lines: `ng` groups (a block) walked a chunk of `chunk`
+    // steps each, in turn; with the lines along the rows a whole line at
+    // once (each lane streams through its own row), along the columns a
+    // block of 256 lines 4 steps at a time (the block's cells at one step
+    // are a run of one row: every cache line of the grid used up at once,
+    // and few pages at a time). The stacks of group g: lane i's distances
+    // at st[(8g + 2i)·cap ..], its heights at st[(8g + 2i + 1)·cap ..].
+    let (ng, chunk) = if ADJ {
+        (LANE_GROUPS, CHUNK_ROWS)
+    } else {
+        (1, steps.len())
+    };
     let cap = steps.len() + 3;
-    let mut st = vec![0.0f64; 8 * cap];
-    let sp = st.as_mut_ptr();
+    let mut st = vec![0.0f64; 8 * ng * cap];
     let one = _mm256_set1_epi64x(1);
     let two = _mm256_set1_epi64x(2);
+    let three = _mm256_set1_epi64x(3);
     let np = _mm256_set1_epi64x(nperp);
     let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
     let inf = _mm256_set1_pd(f64::INFINITY);
@@ -297,132 +313,167 @@ unsafe fn lines_avx2<const CURV: bool>(
     let bz = _mm256_add_epi64(bw, _mm256_set1_epi64x(cap as i64));
     // the shifts are monotone along the walk
     let rising = steps.first().map(|s| s.sh) <= steps.last().map(|s| s.sh);
-    let mut l = -smax;
-    let mut g = 0usize;
-    while l < nperp - smin {
-        if g % 16 == 0 {
+    // per group of the block: its state (stack length, top t and the
+    // vertex p below it) and its range of steps
+    let zi = _mm256_setzero_si256();
+    let zd = _mm256_setzero_pd();
+    let mut state = vec![(zi, zd, zd, zd, zd); ng];
+    let mut range = vec![(0usize, 0usize); ng];
+    let mut l0 = -smax;
+    let mut nb = 0usize;
+    while l0 < nperp - smin {
+        if nb % (16 / ng).max(1) == 0 {
             cancel.check()?;
         }
-        g += 1;
-        // the steps where some lane l..l+3 is on the grid: −l − 3 ≤ sh < nperp − l
-        let (lo, hi) = (-l - 3, nperp - l);
-        let (s0, s1) = if rising {
-            (
-                steps.partition_point(|s| s.sh < lo),
-                steps.partition_point(|s| s.sh < hi),
-            )
-        } else {
-            (
-                steps.partition_point(|s| s.sh >= hi),
-                steps.partition_point(|s| s.sh >= lo),
-            )
-        };
-        let lv = _mm256_add_epi64(_mm256_set1_epi64x(l), lane);
-        let ob = l * svi;
-        let off = _mm256_set_epi64x(ob + 3 * svi, ob + 2 * svi, ob + svi, ob);
-        let wl = if CURV {
-            let f = |i: i64| (l + i) as f64 * wperp;
-            _mm256_set_pd(f(3), f(2), f(1), f(0))
-        } else {
-            _mm256_setzero_pd()
-        };
-        let mut k = _mm256_setzero_si256();
-        let (mut tw, mut tz) = (_mm256_setzero_pd(), _mm256_setzero_pd());
-        for s in steps.get_unchecked(s0..s1) {
-            // lanes whose cell at this step is on the grid: 0 ≤ l + sh < nperp
-            let v = _mm256_add_epi64(lv, _mm256_set1_epi64x(s.sh));
-            let inr = _mm256_castsi256_pd(_mm256_andnot_si256(
-                _mm256_cmpgt_epi64(_mm256_setzero_si256(), v),
-                _mm256_cmpgt_epi64(np, v),
-            ));
-            let minr = _mm256_movemask_pd(inr);
-            let q = _mm256_add_epi64(_mm256_set1_epi64x(s.q0), off);
-            // (a lane off the grid reads the first cell)
-            let h = load4(zp, _mm256_and_si256(q, _mm256_castpd_si256(inr)));
-            let fin = _mm256_and_pd(
-                inr,
-                _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(h, abs_mask), inf),
-            );
-            let mfin = _mm256_movemask_pd(fin);
-            let mut qa = [0i64; 4];
-            _mm256_storeu_si256(qa.as_mut_ptr() as *mut __m256i, q);
-            if mfin != minr {
-                // ±inf or NaN: no data
-                for (i, &qi) in qa.iter().enumerate() {
-                    if (minr & !mfin) >> i & 1 != 0 {
-                        *op.add(qi as usize) = f32::NAN;
-                    }
-                }
-                if mfin == 0 {
+        nb += 1;
+        let ngb = (((nperp - smin - l0 + 3) / 4) as usize).min(ng);
+        for (gi, (r, stt)) in range.iter_mut().zip(state.iter_mut()).take(ngb).enumerate() {
+            let l = l0 + 4 * gi as i64;
+            // the steps where some lane l..l+3 is on the grid: −l − 3 ≤ sh < nperp − l
+            let (lo, hi) = (-l - 3, nperp - l);
+            *r = if rising {
+                (
+                    steps.partition_point(|s| s.sh < lo),
+                    steps.partition_point(|s| s.sh < hi),
+                )
+            } else {
+                (
+                    steps.partition_point(|s| s.sh >= hi),
+                    steps.partition_point(|s| s.sh >= lo),
+                )
+            };
+            *stt = (zi, zd, zd, zd, zd);
+        }
+        let mut c0 = 0;
+        while c0 < steps.len() {
+            let c1 = (c0 + chunk).min(steps.len());
+            for gi in 0..ngb {
+                let (s0, s1) = (range[gi].0.max(c0), range[gi].1.min(c1));
+                if s0 >= s1 {
                     continue;
                 }
-            }
-            let (w, zz) = if CURV {
-                let w = _mm256_add_pd(_mm256_set1_pd(s.w), wl);
-                // Z = z − c·w²
-                (w, _mm256_sub_pd(h, _mm256_mul_pd(_mm256_mul_pd(cv, w), w)))
-            } else {
-                (_mm256_set1_pd(s.w), h)
-            };
-            // pop each lane's top while it is on or under the segment from
-            // the new point to the vertex below it
-            loop {
-                let can = _mm256_and_pd(fin, _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, one)));
-                if _mm256_movemask_pd(can) == 0 {
-                    break;
-                }
-                // (a lane that cannot pop reads its stack's first value)
-                let ip = _mm256_and_si256(_mm256_sub_epi64(k, two), _mm256_castpd_si256(can));
-                let pw = load4(sp, _mm256_add_epi64(bw, ip));
-                let pz = load4(sp, _mm256_add_epi64(bz, ip));
-                let lhs = _mm256_mul_pd(_mm256_sub_pd(pz, zz), _mm256_sub_pd(tw, w));
-                let rhs = _mm256_mul_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(pw, w));
-                let pop = _mm256_and_pd(can, _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs));
-                if _mm256_movemask_pd(pop) == 0 {
-                    break;
-                }
-                tw = _mm256_blendv_pd(tw, pw, pop);
-                tz = _mm256_blendv_pd(tz, pz, pop);
-                k = _mm256_add_epi64(k, _mm256_castpd_si256(pop));
-            }
-            let slope = _mm256_div_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(tw, w));
-            let slope = if CURV {
-                _mm256_add_pd(slope, _mm256_mul_pd(c2, w))
-            } else {
-                slope
-            };
-            let has = _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, _mm256_setzero_si256()));
-            let val = _mm256_cvtpd_ps(_mm256_blendv_pd(ninf, slope, has));
-            // push on every lane (above the top of a lane without a cell
-            // here, the value is never read)
-            let mut iw = [0i64; 4];
-            let mut wa = [0f64; 4];
-            let mut za = [0f64; 4];
-            _mm256_storeu_si256(iw.as_mut_ptr() as *mut __m256i, _mm256_add_epi64(bw, k));
-            _mm256_storeu_pd(wa.as_mut_ptr(), w);
-            _mm256_storeu_pd(za.as_mut_ptr(), zz);
-            for i in 0..4 {
-                *sp.add(iw[i] as usize) = wa[i];
-                *sp.add(iw[i] as usize + cap) = za[i];
-            }
-            let mut va = [0f32; 4];
-            _mm_storeu_ps(va.as_mut_ptr(), val);
-            if mfin == 15 {
-                for i in 0..4 {
-                    *op.add(qa[i] as usize) = va[i];
-                }
-            } else {
-                for i in 0..4 {
-                    if mfin >> i & 1 != 0 {
-                        *op.add(qa[i] as usize) = va[i];
+                let l = l0 + 4 * gi as i64;
+                let sp = st.as_mut_ptr().add(8 * gi * cap);
+                let lv = _mm256_add_epi64(_mm256_set1_epi64x(l), lane);
+                let ob = l * svi;
+                let off = _mm256_set_epi64x(ob + 3 * svi, ob + 2 * svi, ob + svi, ob);
+                let wl = if CURV {
+                    let f = |i: i64| (l + i) as f64 * wperp;
+                    _mm256_set_pd(f(3), f(2), f(1), f(0))
+                } else {
+                    _mm256_setzero_pd()
+                };
+                // each lane's stack length, top t and the vertex p below it
+                let (mut k, mut tw, mut tz, mut pw, mut pz) = state[gi];
+                for s in steps.get_unchecked(s0..s1) {
+                    // lanes whose cell at this step is on the grid: 0 ≤ l + sh < nperp
+                    let v = _mm256_add_epi64(lv, _mm256_set1_epi64x(s.sh));
+                    let inr = _mm256_castsi256_pd(_mm256_andnot_si256(
+                        _mm256_cmpgt_epi64(_mm256_setzero_si256(), v),
+                        _mm256_cmpgt_epi64(np, v),
+                    ));
+                    let minr = _mm256_movemask_pd(inr);
+                    let q = _mm256_add_epi64(_mm256_set1_epi64x(s.q0), off);
+                    let h = if ADJ && minr == 15 {
+                        _mm256_loadu_pd(zp.add((s.q0 + ob) as usize))
+                    } else {
+                        // (a lane off the grid reads the first cell)
+                        load4(zp, _mm256_and_si256(q, _mm256_castpd_si256(inr)))
+                    };
+                    let fin = _mm256_and_pd(
+                        inr,
+                        _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(h, abs_mask), inf),
+                    );
+                    let mfin = _mm256_movemask_pd(fin);
+                    let mut qa = [0i64; 4];
+                    _mm256_storeu_si256(qa.as_mut_ptr() as *mut __m256i, q);
+                    if mfin != minr {
+                        // ±inf or NaN: no data
+                        for (i, &qi) in qa.iter().enumerate() {
+                            if (minr & !mfin) >> i & 1 != 0 {
+                                *op.add(qi as usize) = f32::NAN;
+                            }
+                        }
+                        if mfin == 0 {
+                            continue;
+                        }
                     }
+                    let (w, zz) = if CURV {
+                        let w = _mm256_add_pd(_mm256_set1_pd(s.w), wl);
+                        // Z = z − c·w²
+                        (w, _mm256_sub_pd(h, _mm256_mul_pd(_mm256_mul_pd(cv, w), w)))
+                    } else {
+                        (_mm256_set1_pd(s.w), h)
+                    };
+                    // pop each lane's top while it is on or under the segment from
+                    // the new point to the vertex p below it (both in registers; the
+                    // vertex below p is read ahead, off the chain of comparisons)
+                    loop {
+                        let can =
+                            _mm256_and_pd(fin, _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, one)));
+                        let lhs = _mm256_mul_pd(_mm256_sub_pd(pz, zz), _mm256_sub_pd(tw, w));
+                        let rhs = _mm256_mul_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(pw, w));
+                        let pop = _mm256_and_pd(can, _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs));
+                        if _mm256_movemask_pd(pop) == 0 {
+                            break;
+                        }
+                        // (a lane with fewer than three vertices reads its first one)
+                        let below = _mm256_cmpgt_epi64(k, two);
+                        let ip = _mm256_and_si256(_mm256_sub_epi64(k, three), below);
+                        let qw = load4(sp, _mm256_add_epi64(bw, ip));
+                        let qz = load4(sp, _mm256_add_epi64(bz, ip));
+                        tw = _mm256_blendv_pd(tw, pw, pop);
+                        tz = _mm256_blendv_pd(tz, pz, pop);
+                        pw = _mm256_blendv_pd(pw, qw, pop);
+                        pz = _mm256_blendv_pd(pz, qz, pop);
+                        k = _mm256_add_epi64(k, _mm256_castpd_si256(pop));
+                    }
+                    let slope = _mm256_div_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(tw, w));
+                    let slope = if CURV {
+                        _mm256_add_pd(slope, _mm256_mul_pd(c2, w))
+                    } else {
+                        slope
+                    };
+                    let has = _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, _mm256_setzero_si256()));
+                    let val = _mm256_cvtpd_ps(_mm256_blendv_pd(ninf, slope, has));
+                    // push on every lane (above the top of a lane without a cell
+                    // here, the value is never read)
+                    let mut iw = [0i64; 4];
+                    let mut wa = [0f64; 4];
+                    let mut za = [0f64; 4];
+                    _mm256_storeu_si256(iw.as_mut_ptr() as *mut __m256i, _mm256_add_epi64(bw, k));
+                    _mm256_storeu_pd(wa.as_mut_ptr(), w);
+                    _mm256_storeu_pd(za.as_mut_ptr(), zz);
+                    for i in 0..4 {
+                        *sp.add(iw[i] as usize) = wa[i];
+                        *sp.add(iw[i] as usize + cap) = za[i];
+                    }
+                    let mut va = [0f32; 4];
+                    _mm_storeu_ps(va.as_mut_ptr(), val);
+                    if ADJ && mfin == 15 {
+                        _mm_storeu_ps(op.add(qa[0] as usize), val);
+                    } else if mfin == 15 {
+                        for i in 0..4 {
+                            *op.add(qa[i] as usize) = va[i];
+                        }
+                    } else {
+                        for i in 0..4 {
+                            if mfin >> i & 1 != 0 {
+                                *op.add(qa[i] as usize) = va[i];
+                            }
+                        }
+                    }
+                    k = _mm256_sub_epi64(k, _mm256_castpd_si256(fin));
+                    pw = _mm256_blendv_pd(pw, tw, fin);
+                    pz = _mm256_blendv_pd(pz, tz, fin);
+                    tw = _mm256_blendv_pd(tw, w, fin);
+                    tz = _mm256_blendv_pd(tz, zz, fin);
                 }
+                state[gi] = (k, tw, tz, pw, pz);
             }
-            k = _mm256_sub_epi64(k, _mm256_castpd_si256(fin));
-            tw = _mm256_blendv_pd(tw, w, fin);
-            tz = _mm256_blendv_pd(tz, zz, fin);
+            c0 = c1;
         }
-        l += 4;
+        l0 += 4 * ng as i64;
     }
     slopes_to_angles(out);
     Ok(())
@@ -494,14 +545,23 @@ fn lines_blocked(
         })
         .collect();
     #[cfg(target_arch = "x86_64")]
-    if simd && along_cols {
+    if simd {
         let sm = (smin, smax);
         // SAFETY: AVX2 checked above; the steps and cells as in `walk`.
         return unsafe {
-            if c == 0.0 {
-                lines_avx2::<false>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
-            } else {
-                lines_avx2::<true>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
+            match (c == 0.0, along_cols) {
+                (true, true) => {
+                    lines_avx2::<false, false>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
+                }
+                (true, false) => {
+                    lines_avx2::<false, true>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
+                }
+                (false, true) => {
+                    lines_avx2::<true, false>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
+                }
+                (false, false) => {
+                    lines_avx2::<true, true>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
+                }
             }
         };
     }
