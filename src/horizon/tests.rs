@@ -184,14 +184,16 @@ fn sweep_matches_line_brute() {
 fn sweep_lanes_equal_one_line_walk() {
     // The 4-lane walk (AVX2 where the CPU has it) against the one-line walk,
     // bit for bit: both orientations, both walking senses, several blocks of
-    // lines, no-data cells (NaN, ±inf), flat runs (ties in the pop test),
-    // curvature.
+    // lines, partial groups of four, no-data cells (NaN, ±inf), flat runs
+    // (ties in the pop test), curvature.
     let mut r = rng(23);
-    for (h, w, dv, c) in [
+    let cases = [
         (37, 150, 1.0, 0.0),
         (141, 67, 0.7, 0.0),
         (90, 90, -1.3, 2e-3),
-    ] {
+        (23, 300, 1.0, 1e-3), // more than one block of lines along the columns
+    ];
+    for (h, w, dv, c) in cases {
         let mut z: Vec<f64> = (0..h * w)
             .map(|_| match r() % 10 {
                 0 => 1.0,
