@@ -345,41 +345,43 @@ impl Hull {
 
     #[inline(always)]
     fn add(&mut self, q: Proj) {
-        self.wmin = self.wmin.min(q.w);
-        self.wmax = self.wmax.max(q.w);
-        self.zmax = self.zmax.max(q.zz);
+        // (plain comparisons: every coordinate is a number)
+        self.wmin = if q.w < self.wmin { q.w } else { self.wmin };
+        self.wmax = if q.w > self.wmax { q.w } else { self.wmax };
+        self.zmax = if q.zz > self.zmax { q.zz } else { self.zmax };
         insert_desc(&mut self.h, q);
     }
 
-    /// Can no point of this hull beat a current best of slope `bs` seen
-    /// from `p`? Its slopes (Z − Z_p)/(w − w_p) are at most the bound
-    /// below; the margin (1e-12 relative) is far above the few rounding
-    /// errors of the two quotients, so a skip is never wrong (and a tie,
-    /// which the exact comparison would settle by distance, is never
-    /// skipped).
-    #[inline]
-    fn cannot_beat(&self, p: Proj, bs: f64) -> bool {
-        let num = self.zmax - p.zz;
-        let den = if num >= 0.0 { self.wmin } else { self.wmax } - p.w;
-        if den <= 0.0 {
-            return false;
-        }
-        let bound = num / den;
-        bound < bs - 1e-12 * (bound.abs() + bs.abs())
+    /// Can no point of this hull beat `best` (a point of p's sector) seen
+    /// from `p`? Every point q of the hull lies under the corner
+    /// c = (w_min, Z_max) seen from p when Z_max ≥ Z_p, and under
+    /// c = (w_max, Z_max) otherwise (the slope (Z_q − Z_p)/(w_q − w_p) grows
+    /// with Z_q and, for a positive numerator, as w_q shrinks; for a
+    /// negative one, as w_q grows). So when c lies strictly under the line
+    /// from p through `best` (exact orientation, filtered: an uncertain
+    /// sign does not skip) no hull point reaches `best`'s elevation, not
+    /// even in a tie, and the hull can be skipped. This is the comparison
+    /// of the slopes themselves, without their quotients. (All of this
+    /// needs w_q > w_p for every q, which w_min > w_p ensures.)
+    #[inline(always)]
+    fn cannot_beat(&self, p: Proj, best: Proj) -> bool {
+        let cw = if self.zmax >= p.zz {
+            self.wmin
+        } else {
+            self.wmax
+        };
+        self.wmin > p.w
+            && best.w > p.w
+            && orient_filtered((p.w, p.zz), (best.w, best.zz), (cw, self.zmax)) == Some(false)
     }
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
     #[inline(always)]
     fn query(&mut self, r: &mut Rec) {
         let p = r.p;
-        // Slope of the best so far (−∞: none): skip a hull that cannot beat
-        // it without searching it.
-        let bs = if r.best.w > p.w {
-            (r.best.zz - p.zz) / (r.best.w - p.w)
-        } else {
-            f64::NEG_INFINITY
-        };
-        if self.cannot_beat(p, bs) {
+        // Skip a hull that cannot beat the best so far without searching it
+        // (no best yet: `best.w` is NaN, never skipped).
+        if self.cannot_beat(p, r.best) {
             return;
         }
         self.guess = tangent_from(&self.h, p, self.guess);
@@ -442,24 +444,25 @@ fn pick(p: Proj, best: Proj, c: Proj) -> Proj {
 /// order and `kin` their ranks inside the block; each point against the
 /// block's points already processed with a higher rank.
 fn leaf_block(r: &mut [Rec], kin: &[u8]) {
-    let mut at = [0u8; BLOCK]; // position in `r` of each rank
-    for (i, &k) in kin.iter().enumerate() {
-        at[k as usize] = i as u8;
-    }
+    // The block's processed points by rank, so that a candidate is read
+    // directly by its rank.
+    let mut by_rank = [ABSENT; BLOCK];
     let mut done = 0u64; // bit k: rank k of the block processed
-    for (i, &k) in kin.iter().enumerate() {
-        let p = r[i].p;
-        let mut best = r[i].best;
+    for (rec, &k) in r.iter_mut().zip(kin) {
+        let k = k as usize % BLOCK;
+        let p = rec.p;
+        let mut best = rec.best;
         let mut rest = done >> (k + 1);
-        let mut kk = k as usize + 1;
+        let mut kk = k + 1;
         while rest != 0 {
             let step = rest.trailing_zeros() as usize;
             kk += step;
-            best = pick(p, best, r[at[kk] as usize].p);
+            best = pick(p, best, by_rank[kk % BLOCK]);
             rest >>= step + 1;
             kk += 1;
         }
-        r[i].best = best;
+        rec.best = best;
+        by_rank[k] = p;
         done |= 1 << k;
     }
 }
