@@ -73,7 +73,7 @@ fn stewart_equals_brute_around_block_sizes() {
 fn sort_keys_is_the_exact_order() {
     let mut r = rng(23);
     let mut count = Vec::new();
-    for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000] {
+    for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000, 70001] {
         // few distinct values (many ties on both keys), and spread values
         for distinct in [3u64, 1 << 40] {
             let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
