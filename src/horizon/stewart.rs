@@ -493,14 +493,14 @@ pub struct Work {
     ids: Vec<usize>,
     a: Vec<f64>,
     b: Vec<f64>,
-    pr: Vec<Proj>,
+    /// Every point's projection and a⊥ rank side by side: the leaf blocks'
+    /// gather reads one place per point.
+    pa: Vec<(Proj, u32)>,
     order: Vec<u32>,
     by_b: Vec<u32>,
     /// Runs of equal b⊥ keys in `by_b` (the a⊥ ties of the next sector).
     ties: Vec<(u32, u32)>,
     sort: SortBuf,
-    /// a⊥ rank of every point.
-    arank: Vec<u32>,
     src: Vec<Rec>,
     kin: Vec<u8>,
     dst: Vec<Rec>,
@@ -741,10 +741,10 @@ pub fn sector_with(
     }
     w.b.clear();
     w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
-    w.pr.clear();
-    w.pr.extend(
+    w.pa.clear();
+    w.pa.extend(
         ids.iter()
-            .map(|&q| project(f, t.x[q], t.y[q], t.z[q], o.curvature)),
+            .map(|&q| (project(f, t.x[q], t.y[q], t.z[q], o.curvature), 0)),
     );
     // First index: a⊥ ascending, ties b⊥ descending, then input order.
     if follows {
@@ -756,9 +756,8 @@ pub fn sector_with(
     sort_keys_with(&w.b, &w.a, &mut w.by_b, &mut w.sort, Some(&mut w.ties));
     w.last = Some(this(f.bperp));
     // a⊥ rank of every point
-    w.arank.resize(n, 0);
     for (s, &i) in w.order.iter().enumerate() {
-        w.arank[i as usize] = s as u32;
+        w.pa[i as usize].1 = s as u32;
     }
     // The points by block of leaves (second-index order, written in
     // sequence), then each block in a⊥ order, with their rank inside the
@@ -781,13 +780,13 @@ pub fn sector_with(
     {
         let keys = &mut keys[..ids.len()];
         for (k, (key, &i)) in keys.iter_mut().zip(ids).enumerate() {
-            *key = (w.arank[i as usize] as u64) << 8 | k as u64;
+            *key = (w.pa[i as usize].1 as u64) << 8 | k as u64;
         }
         keys.sort_unstable();
         for ((r, kk), &key) in src.iter_mut().zip(kin.iter_mut()).zip(keys.iter()) {
             let k = (key & 0xff) as u8;
             *r = Rec {
-                p: w.pr[ids[k as usize] as usize],
+                p: w.pa[ids[k as usize] as usize].0,
                 best: ABSENT,
                 a: (key >> 8) as u32,
             };
