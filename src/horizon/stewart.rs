@@ -220,17 +220,49 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
 }
 
 /// Permutation of `0..k1.len()` sorted by `k1` ascending, ties `k2`
-/// descending, then index ascending, written to `out`.
-///
-/// A counting sort on a bucket number that is a monotone function of `k1`
-/// (computed in floating point with monotone operations only, so k1 ≤ k1'
-/// gives bucket ≤ bucket'), then the exact comparison inside each bucket. On
-/// a grid the keys are spread almost evenly and the buckets hold one or two
-/// points; O(n) instead of a comparison sort's O(n log n).
+/// descending, then index ascending, written to `out` (`count`: scratch).
 pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32>) {
+    let mut sb = SortBuf::default();
+    std::mem::swap(&mut sb.count, count);
+    sort_keys_with(k1, k2, out, &mut sb, None);
+    std::mem::swap(&mut sb.count, count);
+}
+
+/// Scratch buffers of [`sort_keys_with`], kept between calls.
+#[derive(Default)]
+pub struct SortBuf {
+    count: Vec<u32>,
+    bucket: Vec<u32>,
+    pairs: Vec<(u32, u32)>,
+    sorted: Vec<u32>,
+}
+
+/// [`sort_keys`] with caller-kept buffers; when `ties` is given, it
+/// receives the runs `start..end` of `out` whose `k1` are equal (same
+/// bits), in order.
+///
+/// A sort on a bucket number that is a monotone function of `k1` (computed
+/// in floating point with monotone operations only, so k1 ≤ k1' gives
+/// bucket ≤ bucket'), then the exact comparison inside each bucket. On a
+/// grid the keys are spread almost evenly over the n buckets, which hold
+/// one or two points; O(n) instead of a comparison sort's O(n log n). The
+/// bucket numbers are sorted by two stable counting passes on their low and
+/// high halves (least significant first), each scattering into at most a
+/// few thousand sequential streams, where one pass over n buckets would
+/// scatter into n places of a multi-megabyte array; indices stay ascending
+/// inside a bucket either way.
+pub fn sort_keys_with(
+    k1: &[f64],
+    k2: &[f64],
+    out: &mut Vec<u32>,
+    sb: &mut SortBuf,
+    mut ties: Option<&mut Vec<(u32, u32)>>,
+) {
     let n = k1.len();
-    out.clear();
     out.resize(n, 0);
+    if let Some(t) = ties.as_deref_mut() {
+        t.clear();
+    }
     if n == 0 {
         return;
     }
@@ -245,20 +277,40 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
     } else {
         0.0
     };
-    let bucket = |v: f64| (((v - lo) * scale) as usize).min(nb - 1);
+    let bucket = |v: f64| (((v - lo) * scale) as usize).min(nb - 1) as u32;
+    // bits of the largest bucket number, split into a low and a high digit
+    let bits = usize::BITS - (nb - 1).leading_zeros();
+    let shift = bits.div_ceil(2);
+    let mask = (1u32 << shift) - 1;
+    let h = 1usize << shift;
+    let count = &mut sb.count;
     count.clear();
-    count.resize(nb + 1, 0);
-    for &v in k1 {
-        count[bucket(v) + 1] += 1;
+    count.resize(2 * h, 0);
+    sb.bucket.clear();
+    sb.bucket.extend(k1.iter().map(|&v| bucket(v)));
+    for &b in &sb.bucket {
+        count[(b & mask) as usize] += 1;
+        count[h + (b >> shift) as usize] += 1;
     }
-    for b in 0..nb {
-        count[b + 1] += count[b];
+    for half in count.chunks_mut(h) {
+        let mut sum = 0;
+        for c in half {
+            (*c, sum) = (sum, sum + *c);
+        }
     }
-    // Stable scatter: inside a bucket, indices stay ascending.
-    for (i, &v) in k1.iter().enumerate() {
-        let b = bucket(v);
-        out[count[b] as usize] = i as u32;
-        count[b] += 1;
+    sb.pairs.resize(n, (0, 0));
+    for (i, &b) in sb.bucket.iter().enumerate() {
+        let d = (b & mask) as usize;
+        sb.pairs[count[d] as usize] = (b, i as u32);
+        count[d] += 1;
+    }
+    sb.sorted.resize(n, 0);
+    for &(b, i) in &sb.pairs[..n] {
+        let d = h + (b >> shift) as usize;
+        let at = count[d] as usize;
+        out[at] = i;
+        sb.sorted[at] = b;
+        count[d] += 1;
     }
     let cmp = |i: &u32, j: &u32| {
         let (i, j) = (*i as usize, *j as usize);
@@ -267,12 +319,32 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
             .then(k2[j].total_cmp(&k2[i]))
             .then(i.cmp(&j))
     };
-    // After the scatter, count[b] is the end of bucket b.
+    // Buckets of more than one point: the exact order, and the runs of
+    // equal keys (which only a shared bucket can hold).
+    let sorted = &sb.sorted[..n];
     let mut start = 0usize;
-    for &end in &count[..nb] {
-        let end = end as usize;
+    while start < n {
+        let mut end = start + 1;
+        while end < n && sorted[end] == sorted[start] {
+            end += 1;
+        }
         if end - start > 1 {
-            out[start..end].sort_unstable_by(cmp);
+            let run = &mut out[start..end];
+            run.sort_unstable_by(cmp);
+            if let Some(t) = ties.as_deref_mut() {
+                let mut a = 0;
+                while a < run.len() {
+                    let key = k1[run[a] as usize].to_bits();
+                    let mut b = a + 1;
+                    while b < run.len() && k1[run[b] as usize].to_bits() == key {
+                        b += 1;
+                    }
+                    if b - a > 1 {
+                        t.push(((start + a) as u32, (start + b) as u32));
+                    }
+                    a = b;
+                }
+            }
         }
         start = end;
     }
@@ -281,11 +353,8 @@ pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32
 /// `out`, sorted by `k1` ascending, sorted as [`sort_keys`] does: each
 /// run of equal `k1` by `k2` descending, then index ascending.
 pub fn sort_ties(k1: &[f64], k2: &[f64], out: &mut [u32]) {
-    let cmp = |i: &u32, j: &u32| {
-        let (i, j) = (*i as usize, *j as usize);
-        k2[j].total_cmp(&k2[i]).then(i.cmp(&j))
-    };
     let mut start = 0;
+    let mut runs = Vec::new();
     while start < out.len() {
         let key = k1[out[start] as usize].to_bits();
         let mut end = start + 1;
@@ -293,9 +362,22 @@ pub fn sort_ties(k1: &[f64], k2: &[f64], out: &mut [u32]) {
             end += 1;
         }
         if end - start > 1 {
-            out[start..end].sort_unstable_by(cmp);
+            runs.push((start as u32, end as u32));
         }
         start = end;
+    }
+    sort_runs(k2, out, &runs);
+}
+
+/// The runs `start..end` of `out` (points of equal first key) sorted by
+/// `k2` descending, then index ascending.
+fn sort_runs(k2: &[f64], out: &mut [u32], runs: &[(u32, u32)]) {
+    let cmp = |i: &u32, j: &u32| {
+        let (i, j) = (*i as usize, *j as usize);
+        k2[j].total_cmp(&k2[i]).then(i.cmp(&j))
+    };
+    for &(start, end) in runs {
+        out[start as usize..end as usize].sort_unstable_by(cmp);
     }
 }
 
@@ -345,41 +427,43 @@ impl Hull {
 
     #[inline(always)]
     fn add(&mut self, q: Proj) {
-        self.wmin = self.wmin.min(q.w);
-        self.wmax = self.wmax.max(q.w);
-        self.zmax = self.zmax.max(q.zz);
+        // (plain comparisons: every coordinate is a number)
+        self.wmin = if q.w < self.wmin { q.w } else { self.wmin };
+        self.wmax = if q.w > self.wmax { q.w } else { self.wmax };
+        self.zmax = if q.zz > self.zmax { q.zz } else { self.zmax };
         insert_desc(&mut self.h, q);
     }
 
-    /// Can no point of this hull beat a current best of slope `bs` seen
-    /// from `p`? Its slopes (Z − Z_p)/(w − w_p) are at most the bound
-    /// below; the margin (1e-12 relative) is far above the few rounding
-    /// errors of the two quotients, so a skip is never wrong (and a tie,
-    /// which the exact comparison would settle by distance, is never
-    /// skipped).
-    #[inline]
-    fn cannot_beat(&self, p: Proj, bs: f64) -> bool {
-        let num = self.zmax - p.zz;
-        let den = if num >= 0.0 { self.wmin } else { self.wmax } - p.w;
-        if den <= 0.0 {
-            return false;
-        }
-        let bound = num / den;
-        bound < bs - 1e-12 * (bound.abs() + bs.abs())
+    /// Can no point of this hull beat `best` (a point of p's sector) seen
+    /// from `p`? Every point q of the hull lies under the corner
+    /// c = (w_min, Z_max) seen from p when Z_max ≥ Z_p, and under
+    /// c = (w_max, Z_max) otherwise (the slope (Z_q − Z_p)/(w_q − w_p) grows
+    /// with Z_q and, for a positive numerator, as w_q shrinks; for a
+    /// negative one, as w_q grows). So when c lies strictly under the line
+    /// from p through `best` (exact orientation, filtered: an uncertain
+    /// sign does not skip) no hull point reaches `best`'s elevation, not
+    /// even in a tie, and the hull can be skipped. This is the comparison
+    /// of the slopes themselves, without their quotients. (All of this
+    /// needs w_q > w_p for every q, which w_min > w_p ensures.)
+    #[inline(always)]
+    fn cannot_beat(&self, p: Proj, best: Proj) -> bool {
+        let cw = if self.zmax >= p.zz {
+            self.wmin
+        } else {
+            self.wmax
+        };
+        self.wmin > p.w
+            && best.w > p.w
+            && orient_filtered((p.w, p.zz), (best.w, best.zz), (cw, self.zmax)) == Some(false)
     }
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
     #[inline(always)]
     fn query(&mut self, r: &mut Rec) {
         let p = r.p;
-        // Slope of the best so far (−∞: none): skip a hull that cannot beat
-        // it without searching it.
-        let bs = if r.best.w > p.w {
-            (r.best.zz - p.zz) / (r.best.w - p.w)
-        } else {
-            f64::NEG_INFINITY
-        };
-        if self.cannot_beat(p, bs) {
+        // Skip a hull that cannot beat the best so far without searching it
+        // (no best yet: `best.w` is NaN, never skipped).
+        if self.cannot_beat(p, r.best) {
             return;
         }
         self.guess = tangent_from(&self.h, p, self.guess);
@@ -409,11 +493,14 @@ pub struct Work {
     ids: Vec<usize>,
     a: Vec<f64>,
     b: Vec<f64>,
-    pr: Vec<Proj>,
+    /// Every point's projection and a⊥ rank side by side: the leaf blocks'
+    /// gather reads one place per point.
+    pa: Vec<(Proj, u32)>,
     order: Vec<u32>,
     by_b: Vec<u32>,
-    count: Vec<u32>,
-    rank: Vec<u32>,
+    /// Runs of equal b⊥ keys in `by_b` (the a⊥ ties of the next sector).
+    ties: Vec<(u32, u32)>,
+    sort: SortBuf,
     src: Vec<Rec>,
     kin: Vec<u8>,
     dst: Vec<Rec>,
@@ -442,24 +529,25 @@ fn pick(p: Proj, best: Proj, c: Proj) -> Proj {
 /// order and `kin` their ranks inside the block; each point against the
 /// block's points already processed with a higher rank.
 fn leaf_block(r: &mut [Rec], kin: &[u8]) {
-    let mut at = [0u8; BLOCK]; // position in `r` of each rank
-    for (i, &k) in kin.iter().enumerate() {
-        at[k as usize] = i as u8;
-    }
+    // The block's processed points by rank, so that a candidate is read
+    // directly by its rank.
+    let mut by_rank = [ABSENT; BLOCK];
     let mut done = 0u64; // bit k: rank k of the block processed
-    for (i, &k) in kin.iter().enumerate() {
-        let p = r[i].p;
-        let mut best = r[i].best;
+    for (rec, &k) in r.iter_mut().zip(kin) {
+        let k = k as usize % BLOCK;
+        let p = rec.p;
+        let mut best = rec.best;
         let mut rest = done >> (k + 1);
-        let mut kk = k as usize + 1;
+        let mut kk = k + 1;
         while rest != 0 {
             let step = rest.trailing_zeros() as usize;
             kk += step;
-            best = pick(p, best, r[at[kk] as usize].p);
+            best = pick(p, best, by_rank[kk % BLOCK]);
             rest >>= step + 1;
             kk += 1;
         }
-        r[i].best = best;
+        rec.best = best;
+        by_rank[k] = p;
         done |= 1 << k;
     }
 }
@@ -639,7 +727,8 @@ pub fn sector_with(
     // a⊥ of sector i + 1 is b⊥ of sector i, bit for bit (the shared border
     // ray): after sector i this thread holds those keys and their order,
     // which is the first-index order here except inside runs of equal keys
-    // (ties go by the other key, re-sorted by `sort_ties`).
+    // (ties go by the other key: the runs found by the last b⊥ sort are
+    // re-sorted).
     let this = |v: (f64, f64)| (t.kx.as_ptr() as usize, n, v.0.to_bits(), v.1.to_bits());
     let follows = w.last == Some(this(f.aperp));
     w.last = None;
@@ -652,54 +741,59 @@ pub fn sector_with(
     }
     w.b.clear();
     w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
-    w.pr.clear();
-    w.pr.extend(
+    w.pa.clear();
+    w.pa.extend(
         ids.iter()
-            .map(|&q| project(f, t.x[q], t.y[q], t.z[q], o.curvature)),
+            .map(|&q| (project(f, t.x[q], t.y[q], t.z[q], o.curvature), 0)),
     );
     // First index: a⊥ ascending, ties b⊥ descending, then input order.
     if follows {
-        sort_ties(&w.a, &w.b, &mut w.order);
+        sort_runs(&w.b, &mut w.order, &w.ties);
     } else {
-        sort_keys(&w.a, &w.b, &mut w.order, &mut w.count);
+        sort_keys_with(&w.a, &w.b, &mut w.order, &mut w.sort, None);
     }
     // Second index: b⊥ ascending, ties a⊥ descending, then input order.
-    sort_keys(&w.b, &w.a, &mut w.by_b, &mut w.count);
+    sort_keys_with(&w.b, &w.a, &mut w.by_b, &mut w.sort, Some(&mut w.ties));
     w.last = Some(this(f.bperp));
-    // b⊥ rank (leaf) of every point
-    w.rank.clear();
-    w.rank.resize(n, 0);
-    for (k, &i) in w.by_b.iter().enumerate() {
-        w.rank[i as usize] = k as u32;
-    }
-    // The points by block of leaves, in a⊥ order inside each block (a
-    // counting scatter in a⊥ order), with their rank inside the block.
-    w.src.clear();
-    w.src.resize(
-        n,
-        Rec {
-            p: ABSENT,
-            best: ABSENT,
-            a: 0,
-        },
-    );
-    w.kin.clear();
-    w.kin.resize(n, 0);
-    w.count.clear();
-    w.count.resize(n.div_ceil(BLOCK), 0);
+    // a⊥ rank of every point
     for (s, &i) in w.order.iter().enumerate() {
-        let k = w.rank[i as usize] as usize;
-        let pos = k / BLOCK * BLOCK + w.count[k / BLOCK] as usize;
-        w.count[k / BLOCK] += 1;
-        w.src[pos] = Rec {
-            p: w.pr[i as usize],
-            best: ABSENT,
-            a: s as u32,
-        };
-        w.kin[pos] = (k % BLOCK) as u8;
+        w.pa[i as usize].1 = s as u32;
     }
-    w.dst.clear();
-    w.dst.resize(n, w.src[0]);
+    // The points by block of leaves (second-index order, written in
+    // sequence), then each block in a⊥ order, with their rank inside the
+    // block. Every slot of `src`, `kin` and (by the first pass) `dst` is
+    // written before it is read, so their old contents stay.
+    let blank = Rec {
+        p: ABSENT,
+        best: ABSENT,
+        a: 0,
+    };
+    w.src.resize(n, blank);
+    w.kin.resize(n, 0);
+    w.dst.resize(n, blank);
+    let mut keys = [0u64; BLOCK];
+    for ((src, kin), ids) in w
+        .src
+        .chunks_mut(BLOCK)
+        .zip(w.kin.chunks_mut(BLOCK))
+        .zip(w.by_b.chunks(BLOCK))
+    {
+        let keys = &mut keys[..ids.len()];
+        for (k, (key, &i)) in keys.iter_mut().zip(ids).enumerate() {
+            *key = (w.pa[i as usize].1 as u64) << 8 | k as u64;
+        }
+        keys.sort_unstable();
+        for ((r, kk), &key) in src.iter_mut().zip(kin.iter_mut()).zip(keys.iter()) {
+            let k = (key & 0xff) as u8;
+            *r = Rec {
+                p: w.pa[ids[k as usize] as usize].0,
+                best: ABSENT,
+                a: (key >> 8) as u32,
+            };
+            *kk = k;
+        }
+    }
+
     // The tree level by level from the leaves up, instead of point by point
     // from the root down (the same hulls meet the same queries, so the same
     // answers): two levels per sequential pass, with at most three hulls

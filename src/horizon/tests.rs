@@ -73,7 +73,7 @@ fn stewart_equals_brute_around_block_sizes() {
 fn sort_keys_is_the_exact_order() {
     let mut r = rng(23);
     let mut count = Vec::new();
-    for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000] {
+    for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000, 70001] {
         // few distinct values (many ties on both keys), and spread values
         for distinct in [3u64, 1 << 40] {
             let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
@@ -353,6 +353,36 @@ fn stewart_max_distance_equals_brute() {
             if d < 5.0 {
                 let full = run(&t, &Options::new(s, Method::Stewart));
                 assert!(!same_bits(&full, &b), "points s {s} d {d}");
+            }
+        }
+    }
+}
+
+#[test]
+fn sort_keys_reports_the_runs_of_equal_first_keys() {
+    let mut r = rng(31);
+    let mut sb = stewart::SortBuf::default();
+    for n in [1usize, 2, 9, 3000, 70001] {
+        for distinct in [3u64, 5000, 1 << 40] {
+            let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
+            let k2: Vec<f64> = (0..n).map(|_| (r() % 7) as f64).collect();
+            let (mut out, mut ties) = (Vec::new(), Vec::new());
+            stewart::sort_keys_with(&k1, &k2, &mut out, &mut sb, Some(&mut ties));
+            let mut want = Vec::new();
+            let mut start = 0;
+            while start < n {
+                let mut end = start + 1;
+                while end < n && k1[out[end] as usize] == k1[out[start] as usize] {
+                    end += 1;
+                }
+                if end - start > 1 {
+                    want.push((start as u32, end as u32));
+                }
+                start = end;
+            }
+            assert_eq!(ties, want, "n {n} distinct {distinct}");
+            if distinct == 3 && n > 2 {
+                assert!(!ties.is_empty());
             }
         }
     }
