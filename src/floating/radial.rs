@@ -27,6 +27,7 @@ use super::ShadingMode;
 use super::SharedOut;
 use crate::cancel::Cancel;
 use crate::error::Result;
+use crate::scratch::Zeroed;
 use crate::surface::HeightSample;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -112,8 +113,8 @@ pub(crate) fn render_radial(
     let n = w * h;
     let rows = h.div_ceil(4 * rayon::current_num_threads().max(1)).max(1);
     let block = (w * rows).max(1);
-    let mut bin_of = vec![0u32; n];
-    let mut theta_of = vec![0.0f64; n];
+    let mut bin_of = Zeroed::<u32>::new(n);
+    let mut theta_of = Zeroed::<f64>::new(n);
     let mut slots: Vec<Vec<u32>> = bin_of
         .par_chunks_mut(block)
         .zip(theta_of.par_chunks_mut(block))
@@ -145,8 +146,8 @@ pub(crate) fn render_radial(
         start[b + 1] = at;
     }
     // The sorted rays, as pixel indices and elevations.
-    let mut ray_k: Vec<u32> = Vec::with_capacity(n);
-    let mut ray_th: Vec<f64> = Vec::with_capacity(n);
+    let mut ray_k = Zeroed::<u32>::new(n);
+    let mut ray_th = Zeroed::<f64>::new(n);
     let dst = RayOut {
         n,
         k: ray_k.as_mut_ptr(),
@@ -191,12 +192,6 @@ pub(crate) fn render_radial(
                 }
             }
         });
-    // SAFETY: every slot of 0..n was written once above (the counts add up
-    // to n = w·h, the length of `bin_of`).
-    unsafe {
-        ray_k.set_len(n);
-        ray_th.set_len(n);
-    }
     drop(bin_of);
     drop(slots);
     let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
@@ -205,7 +200,7 @@ pub(crate) fn render_radial(
     // their pixels directly, else gathered from their lists. The depths
     // reuse the elevations' memory: a depth is read only where its pixel is
     // set, which writes it.
-    let mut set = vec![false; n];
+    let mut set = Zeroed::<bool>::new(n);
     let mut depth = theta_of;
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
@@ -303,7 +298,7 @@ impl RayOut {
     #[inline]
     unsafe fn put(&self, slot: usize, k: u32, theta: f64) {
         assert!(slot < self.n, "slot out of range");
-        // SAFETY: in bounds of both allocations (capacity n) and exclusive
+        // SAFETY: in bounds of both arrays (length n) and exclusive
         // (see above).
         unsafe {
             self.k.add(slot).write(k);
