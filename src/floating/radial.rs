@@ -180,15 +180,26 @@ pub(crate) fn render_radial(
             for t0 in (0..rows_here).step_by(TILE) {
                 let t1 = (t0 + TILE).min(rows_here);
                 for &j in left.iter().chain(&right) {
+                    // The next slot of the current bin in a register, stored
+                    // back when the bin changes (the column's pixels mostly
+                    // share one).
+                    let mut b = bs[t0 * w + j] as usize;
+                    let mut slot = next[b];
                     for r in t0..t1 {
                         let q = r * w + j;
-                        let slot = &mut next[bs[q] as usize];
+                        let bq = bs[q] as usize;
+                        if bq != b {
+                            next[b] = slot;
+                            b = bq;
+                            slot = next[b];
+                        }
                         // SAFETY: the slots of all blocks and bins partition
                         // 0..n (each block has its own run of slots in every
                         // bin).
-                        unsafe { dst.put(*slot as usize, (m * block + q) as u32, ts[q]) };
-                        *slot += 1;
+                        unsafe { dst.put(slot as usize, (m * block + q) as u32, ts[q]) };
+                        slot += 1;
                     }
+                    next[b] = slot;
                 }
             }
         });
@@ -231,9 +242,10 @@ pub(crate) fn render_radial(
                     for (k, p) in &sw.out {
                         // SAFETY: the bins partition the pixels and a bin lists
                         // each of its pixels once, so no other thread touches
-                        // pixel k.
+                        // pixel k. Without coverage a bin lists set pixels
+                        // only.
                         unsafe {
-                            out.put(*k, p);
+                            out.put_set(*k, p);
                             marks.put(*k, p);
                         }
                     }
@@ -261,8 +273,9 @@ pub(crate) fn render_radial(
     fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
     if let Some(out) = direct {
         for (k, p) in &holes {
-            // SAFETY: the bins are done; this thread alone writes.
-            unsafe { out.put(*k, p) };
+            // SAFETY: the bins are done; this thread alone writes. A filled
+            // hole is set.
+            unsafe { out.put_set(*k, p) };
         }
     } else {
         all.push(holes);
@@ -557,8 +570,10 @@ fn bytes8(set: &[bool], a: usize) -> u64 {
 #[inline]
 pub(crate) fn elevation(z: f64, h: f64) -> f64 {
     let r = (h * h + z * z).sqrt();
+    // A select rather than a branch, so that loops over rays vectorise.
+    let s = z / (h + r);
     if r > 0.0 {
-        z / (h + r)
+        s
     } else {
         0.0
     }
