@@ -27,7 +27,7 @@ use super::ShadingMode;
 use super::SharedOut;
 use crate::cancel::Cancel;
 use crate::error::Result;
-use crate::scratch::Zeroed;
+use crate::scratch::ScratchArray;
 use crate::surface::HeightSample;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -113,8 +113,8 @@ pub(crate) fn render_radial(
     let n = w * h;
     let rows = h.div_ceil(4 * rayon::current_num_threads().max(1)).max(1);
     let block = (w * rows).max(1);
-    let mut bin_of = Zeroed::<u32>::new(n);
-    let mut theta_of = Zeroed::<f64>::new(n);
+    let mut bin_of = ScratchArray::<u32>::any(n);
+    let mut theta_of = ScratchArray::<f64>::any(n);
     let mut slots: Vec<Vec<u32>> = bin_of
         .par_chunks_mut(block)
         .zip(theta_of.par_chunks_mut(block))
@@ -146,8 +146,8 @@ pub(crate) fn render_radial(
         start[b + 1] = at;
     }
     // The sorted rays, as pixel indices and elevations.
-    let mut ray_k = Zeroed::<u32>::new(n);
-    let mut ray_th = Zeroed::<f64>::new(n);
+    let mut ray_k = ScratchArray::<u32>::any(n);
+    let mut ray_th = ScratchArray::<f64>::any(n);
     let dst = RayOut {
         n,
         k: ray_k.as_mut_ptr(),
@@ -211,7 +211,7 @@ pub(crate) fn render_radial(
     // their pixels directly, else gathered from their lists. The depths
     // reuse the elevations' memory: a depth is read only where its pixel is
     // set, which writes it.
-    let mut set = Zeroed::<bool>::new(n);
+    let mut set = ScratchArray::<bool>::zeroed(n);
     let mut depth = theta_of;
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
