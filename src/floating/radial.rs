@@ -570,10 +570,8 @@ fn bytes8(set: &[bool], a: usize) -> u64 {
 #[inline]
 pub(crate) fn elevation(z: f64, h: f64) -> f64 {
     let r = (h * h + z * z).sqrt();
-    // A select rather than a branch, so that loops over rays vectorise.
-    let s = z / (h + r);
     if r > 0.0 {
-        s
+        z / (h + r)
     } else {
         0.0
     }
