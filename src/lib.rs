@@ -18,6 +18,7 @@ pub mod horizon;
 pub mod image;
 pub mod parametric;
 pub mod raster;
+mod scratch;
 pub mod shade;
 pub mod source;
 pub mod surface;

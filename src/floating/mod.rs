@@ -501,17 +501,6 @@ impl<'a> SharedOut<'a> {
         }
     }
 
-    /// Write pixel k (row-major index) as [`write_pixel`] does without
-    /// supersampling; an unset pixel keeps its background.
-    ///
-    /// # Safety
-    /// No other thread reads or writes pixel k meanwhile.
-    #[inline]
-    pub(crate) unsafe fn put(&self, k: usize, p: &Pixel) {
-        // SAFETY: the caller's guarantee.
-        unsafe { self.put_with(k, p, None) }
-    }
-
     /// Write a set pixel k without supersampling: what [`write_pixel`]
     /// does, straight through the raw views (the common orthographic case).
     ///

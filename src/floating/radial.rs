@@ -27,6 +27,7 @@ use super::ShadingMode;
 use super::SharedOut;
 use crate::cancel::Cancel;
 use crate::error::Result;
+use crate::scratch::ScratchArray;
 use crate::surface::HeightSample;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -112,8 +113,8 @@ pub(crate) fn render_radial(
     let n = w * h;
     let rows = h.div_ceil(4 * rayon::current_num_threads().max(1)).max(1);
     let block = (w * rows).max(1);
-    let mut bin_of = vec![0u32; n];
-    let mut theta_of = vec![0.0f64; n];
+    let mut bin_of = ScratchArray::<u32>::any(n);
+    let mut theta_of = ScratchArray::<f64>::any(n);
     let mut slots: Vec<Vec<u32>> = bin_of
         .par_chunks_mut(block)
         .zip(theta_of.par_chunks_mut(block))
@@ -145,8 +146,8 @@ pub(crate) fn render_radial(
         start[b + 1] = at;
     }
     // The sorted rays, as pixel indices and elevations.
-    let mut ray_k: Vec<u32> = Vec::with_capacity(n);
-    let mut ray_th: Vec<f64> = Vec::with_capacity(n);
+    let mut ray_k = ScratchArray::<u32>::any(n);
+    let mut ray_th = ScratchArray::<f64>::any(n);
     let dst = RayOut {
         n,
         k: ray_k.as_mut_ptr(),
@@ -179,24 +180,29 @@ pub(crate) fn render_radial(
             for t0 in (0..rows_here).step_by(TILE) {
                 let t1 = (t0 + TILE).min(rows_here);
                 for &j in left.iter().chain(&right) {
+                    // The next slot of the current bin in a register, stored
+                    // back when the bin changes (the column's pixels mostly
+                    // share one).
+                    let mut b = bs[t0 * w + j] as usize;
+                    let mut slot = next[b];
                     for r in t0..t1 {
                         let q = r * w + j;
-                        let slot = &mut next[bs[q] as usize];
+                        let bq = bs[q] as usize;
+                        if bq != b {
+                            next[b] = slot;
+                            b = bq;
+                            slot = next[b];
+                        }
                         // SAFETY: the slots of all blocks and bins partition
                         // 0..n (each block has its own run of slots in every
                         // bin).
-                        unsafe { dst.put(*slot as usize, (m * block + q) as u32, ts[q]) };
-                        *slot += 1;
+                        unsafe { dst.put(slot as usize, (m * block + q) as u32, ts[q]) };
+                        slot += 1;
                     }
+                    next[b] = slot;
                 }
             }
         });
-    // SAFETY: every slot of 0..n was written once above (the counts add up
-    // to n = w·h, the length of `bin_of`).
-    unsafe {
-        ray_k.set_len(n);
-        ray_th.set_len(n);
-    }
     drop(bin_of);
     drop(slots);
     let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
@@ -205,7 +211,7 @@ pub(crate) fn render_radial(
     // their pixels directly, else gathered from their lists. The depths
     // reuse the elevations' memory: a depth is read only where its pixel is
     // set, which writes it.
-    let mut set = vec![false; n];
+    let mut set = ScratchArray::<bool>::zeroed(n);
     let mut depth = theta_of;
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
@@ -236,9 +242,10 @@ pub(crate) fn render_radial(
                     for (k, p) in &sw.out {
                         // SAFETY: the bins partition the pixels and a bin lists
                         // each of its pixels once, so no other thread touches
-                        // pixel k.
+                        // pixel k. Without coverage a bin lists set pixels
+                        // only.
                         unsafe {
-                            out.put(*k, p);
+                            out.put_set(*k, p);
                             marks.put(*k, p);
                         }
                     }
@@ -266,8 +273,9 @@ pub(crate) fn render_radial(
     fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
     if let Some(out) = direct {
         for (k, p) in &holes {
-            // SAFETY: the bins are done; this thread alone writes.
-            unsafe { out.put(*k, p) };
+            // SAFETY: the bins are done; this thread alone writes. A filled
+            // hole is set.
+            unsafe { out.put_set(*k, p) };
         }
     } else {
         all.push(holes);
@@ -303,7 +311,7 @@ impl RayOut {
     #[inline]
     unsafe fn put(&self, slot: usize, k: u32, theta: f64) {
         assert!(slot < self.n, "slot out of range");
-        // SAFETY: in bounds of both allocations (capacity n) and exclusive
+        // SAFETY: in bounds of both arrays (length n) and exclusive
         // (see above).
         unsafe {
             self.k.add(slot).write(k);
