@@ -124,40 +124,6 @@ unsafe fn slopes_to_angles_avx(out: &mut [f32]) {
     slopes_to_angles_plain(out);
 }
 
-/// Fault in the pages of the output plane in one system call (Linux
-/// `MADV_POPULATE_WRITE`) rather than one page fault per 4 KiB page as the
-/// walk first writes them (the planes are usually fresh memory); each
-/// plane in its own task, so in parallel. Where the call is not supported,
-/// nothing changes.
-fn populate(plane: &mut [f32]) {
-    #[cfg(target_os = "linux")]
-    {
-        const PAGE: usize = 4096;
-        let bytes = std::mem::size_of_val(plane);
-        if bytes >= 64 * PAGE {
-            extern "C" {
-                fn madvise(addr: *mut std::ffi::c_void, len: usize, advice: i32) -> i32;
-            }
-            const MADV_POPULATE_WRITE: i32 = 23;
-            let a = plane.as_mut_ptr() as usize;
-            let (start, end) = (a.next_multiple_of(PAGE), (a + bytes) / PAGE * PAGE);
-            // SAFETY: [start, end) is page-aligned and inside `plane`, which
-            // is borrowed mutably; populating changes no value (a page read
-            // as zero or as its contents before, and still does). A failure
-            // only leaves the pages to be faulted in one by one.
-            unsafe {
-                madvise(
-                    start as *mut std::ffi::c_void,
-                    end - start,
-                    MADV_POPULATE_WRITE,
-                )
-            };
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = plane;
-}
-
 /// Lines walked together (one cache line of output per step and line).
 const BLOCK: i64 = 64;
 
@@ -752,7 +718,9 @@ pub(crate) fn sector_with(
     progress: &Progress,
     simd: bool,
 ) -> Result<()> {
-    populate(plane);
+    // the planes are usually fresh memory: faulted in by one call, each
+    // plane in its own task (so in parallel)
+    crate::scratch::populate_write(plane);
     let (rows, cols, du, dv) = t.grid.expect("validated: sweep needs a grid");
     let (gc, gr) = (f.r.0 / du, f.r.1 / dv);
     if o.max_distance.is_none() {
