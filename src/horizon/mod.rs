@@ -487,6 +487,9 @@ pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -
         out.par_chunks_mut(n)
             .zip(list.par_iter())
             .try_for_each(|(plane, &i)| -> Result<()> {
+                // The planes are fresh memory, each written whole by its
+                // task: faulted in by one call per plane (in parallel).
+                crate::scratch::populate_write(plane);
                 let f = Frame::new(i, o.sectors);
                 match o.method {
                     Method::Brute => unreachable!(),

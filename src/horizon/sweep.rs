@@ -718,9 +718,6 @@ pub(crate) fn sector_with(
     progress: &Progress,
     simd: bool,
 ) -> Result<()> {
-    // the planes are usually fresh memory: faulted in by one call, each
-    // plane in its own task (so in parallel)
-    crate::scratch::populate_write(plane);
     let (rows, cols, du, dv) = t.grid.expect("validated: sweep needs a grid");
     let (gc, gr) = (f.r.0 / du, f.r.1 / dv);
     if o.max_distance.is_none() {
