@@ -332,18 +332,9 @@ pub fn sort_keys_with(
             let run = &mut out[start..end];
             run.sort_unstable_by(cmp);
             if let Some(t) = ties.as_deref_mut() {
-                let mut a = 0;
-                while a < run.len() {
-                    let key = k1[run[a] as usize].to_bits();
-                    let mut b = a + 1;
-                    while b < run.len() && k1[run[b] as usize].to_bits() == key {
-                        b += 1;
-                    }
-                    if b - a > 1 {
-                        t.push(((start + a) as u32, (start + b) as u32));
-                    }
-                    a = b;
-                }
+                equal_runs(k1, run, |a, b| {
+                    t.push(((start + a) as u32, (start + b) as u32))
+                });
             }
         }
         start = end;
@@ -353,20 +344,26 @@ pub fn sort_keys_with(
 /// `out`, sorted by `k1` ascending, sorted as [`sort_keys`] does: each
 /// run of equal `k1` by `k2` descending, then index ascending.
 pub fn sort_ties(k1: &[f64], k2: &[f64], out: &mut [u32]) {
-    let mut start = 0;
     let mut runs = Vec::new();
-    while start < out.len() {
-        let key = k1[out[start] as usize].to_bits();
-        let mut end = start + 1;
-        while end < out.len() && k1[out[end] as usize].to_bits() == key {
-            end += 1;
-        }
-        if end - start > 1 {
-            runs.push((start as u32, end as u32));
-        }
-        start = end;
-    }
+    equal_runs(k1, out, |a, b| runs.push((a as u32, b as u32)));
     sort_runs(k2, out, &runs);
+}
+
+/// Each run `a..b` of two or more consecutive entries of `idx` with
+/// bit-equal `k1`, in order.
+fn equal_runs(k1: &[f64], idx: &[u32], mut f: impl FnMut(usize, usize)) {
+    let mut a = 0;
+    while a < idx.len() {
+        let key = k1[idx[a] as usize].to_bits();
+        let mut b = a + 1;
+        while b < idx.len() && k1[idx[b] as usize].to_bits() == key {
+            b += 1;
+        }
+        if b - a > 1 {
+            f(a, b);
+        }
+        a = b;
+    }
 }
 
 /// The runs `start..end` of `out` (points of equal first key) sorted by
