@@ -508,7 +508,8 @@ impl<'a> SharedOut<'a> {
     /// No other thread reads or writes pixel k meanwhile.
     #[inline]
     pub(crate) unsafe fn put_set(&self, k: usize, p: &Pixel) {
-        assert!(k < self.n && p.set, "pixel index out of range");
+        assert!(k < self.n, "pixel index out of range");
+        assert!(p.set, "put_set of an unset pixel");
         // SAFETY: k < n, every non-null view holds n pixels, and the caller
         // guarantees exclusive access to pixel k.
         unsafe {

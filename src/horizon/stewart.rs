@@ -220,12 +220,10 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
 }
 
 /// Permutation of `0..k1.len()` sorted by `k1` ascending, ties `k2`
-/// descending, then index ascending, written to `out` (`count`: scratch).
-pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>, count: &mut Vec<u32>) {
-    let mut sb = SortBuf::default();
-    std::mem::swap(&mut sb.count, count);
-    sort_keys_with(k1, k2, out, &mut sb, None);
-    std::mem::swap(&mut sb.count, count);
+/// descending, then index ascending, written to `out` (see
+/// [`sort_keys_with`]).
+pub fn sort_keys(k1: &[f64], k2: &[f64], out: &mut Vec<u32>) {
+    sort_keys_with(k1, k2, out, &mut SortBuf::default(), None);
 }
 
 /// Scratch buffers of [`sort_keys_with`], kept between calls.
@@ -341,14 +339,6 @@ pub fn sort_keys_with(
     }
 }
 
-/// `out`, sorted by `k1` ascending, sorted as [`sort_keys`] does: each
-/// run of equal `k1` by `k2` descending, then index ascending.
-pub fn sort_ties(k1: &[f64], k2: &[f64], out: &mut [u32]) {
-    let mut runs = Vec::new();
-    equal_runs(k1, out, |a, b| runs.push((a as u32, b as u32)));
-    sort_runs(k2, out, &runs);
-}
-
 /// Each run `a..b` of two or more consecutive entries of `idx` with
 /// bit-equal `k1`, in order.
 fn equal_runs(k1: &[f64], idx: &[u32], mut f: impl FnMut(usize, usize)) {
@@ -366,9 +356,11 @@ fn equal_runs(k1: &[f64], idx: &[u32], mut f: impl FnMut(usize, usize)) {
     }
 }
 
-/// The runs `start..end` of `out` (points of equal first key) sorted by
-/// `k2` descending, then index ascending.
-fn sort_runs(k2: &[f64], out: &mut [u32], runs: &[(u32, u32)]) {
+/// The runs `start..end` of `out` (points of equal first key, as
+/// [`sort_keys_with`] reports them) sorted by `k2` descending, then index
+/// ascending: an order by the same first key with other tie rules becomes
+/// [`sort_keys`]' order by (k1, k2).
+pub fn sort_runs(k2: &[f64], out: &mut [u32], runs: &[(u32, u32)]) {
     let cmp = |i: &u32, j: &u32| {
         let (i, j) = (*i as usize, *j as usize);
         k2[j].total_cmp(&k2[i]).then(i.cmp(&j))
@@ -1042,9 +1034,9 @@ pub fn hull_stats(t: &Terrain, f: &Frame, o: &Options) -> (f64, usize) {
         .iter()
         .map(|&q| project(f, t.x[q], t.y[q], t.z[q], o.curvature))
         .collect();
-    let (mut order, mut by_b, mut count) = (Vec::new(), Vec::new(), Vec::new());
-    sort_keys(&a, &b, &mut order, &mut count);
-    sort_keys(&b, &a, &mut by_b, &mut count);
+    let (mut order, mut by_b) = (Vec::new(), Vec::new());
+    sort_keys(&a, &b, &mut order);
+    sort_keys(&b, &a, &mut by_b);
     let mut rank = vec![0usize; n];
     for (k, &i) in by_b.iter().enumerate() {
         rank[i as usize] = k;

@@ -72,14 +72,13 @@ fn stewart_equals_brute_around_block_sizes() {
 #[test]
 fn sort_keys_is_the_exact_order() {
     let mut r = rng(23);
-    let mut count = Vec::new();
     for n in [1usize, 2, 5, 100, 2047, 2048, 2049, 5000, 70001] {
         // few distinct values (many ties on both keys), and spread values
         for distinct in [3u64, 1 << 40] {
             let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
             let k2: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 - 7.0).collect();
             let mut out = Vec::new();
-            stewart::sort_keys(&k1, &k2, &mut out, &mut count);
+            stewart::sort_keys(&k1, &k2, &mut out);
             let mut want: Vec<u32> = (0..n as u32).collect();
             want.sort_by(|&i, &j| {
                 let (i, j) = (i as usize, j as usize);
@@ -389,21 +388,22 @@ fn sort_keys_reports_the_runs_of_equal_first_keys() {
 }
 
 #[test]
-fn sort_ties_finishes_an_order_on_the_same_first_key() {
+fn sort_runs_finishes_an_order_on_the_same_first_key() {
     // An order sorted by k1 with other tie rules (as the previous sector
-    // leaves it) becomes sort_keys' order.
+    // leaves it), its runs of equal k1 re-sorted by k2, becomes sort_keys'
+    // order by (k1, k2).
     let mut r = rng(29);
-    let mut count = Vec::new();
+    let mut sb = stewart::SortBuf::default();
     for n in [1usize, 2, 7, 1000] {
         for distinct in [3u64, 1 << 40] {
             let k1: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 * 0.37).collect();
             let k2: Vec<f64> = (0..n).map(|_| (r() % distinct) as f64 - 7.0).collect();
             let k3: Vec<f64> = (0..n).map(|_| (r() % 5) as f64).collect();
-            let mut out = Vec::new();
-            stewart::sort_keys(&k1, &k3, &mut out, &mut count);
-            stewart::sort_ties(&k1, &k2, &mut out);
+            let (mut out, mut ties) = (Vec::new(), Vec::new());
+            stewart::sort_keys_with(&k1, &k3, &mut out, &mut sb, Some(&mut ties));
+            stewart::sort_runs(&k2, &mut out, &ties);
             let mut want = Vec::new();
-            stewart::sort_keys(&k1, &k2, &mut want, &mut count);
+            stewart::sort_keys(&k1, &k2, &mut want);
             assert_eq!(out, want, "n {n} distinct {distinct}");
         }
     }
