@@ -297,4 +297,18 @@ mod tests {
         let pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
         assert!(pool.iter().map(|m| m.body).sum::<usize>() <= KEEP);
     }
+
+    #[test]
+    fn populate_write_keeps_values() {
+        // unaligned start and end, fresh and written pages alike
+        let mut v = vec![0.0f32; 300_001];
+        for (k, x) in v.iter_mut().enumerate().skip(1).step_by(977) {
+            *x = k as f32;
+        }
+        populate_write(&mut v[1..]);
+        assert!(v
+            .iter()
+            .enumerate()
+            .all(|(k, &x)| x == if k % 977 == 1 { k as f32 } else { 0.0 }));
+    }
 }
