@@ -1529,7 +1529,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut n = 0;
         while la < hi && n < 10_000 {
             n += 1;
-            let lb = la + step;
+            // (the last step ends at hi: a crossing just before the domain's
+            // edge is not stepped over)
+            let lb = (la + step).min(hi);
             let Some(gb) = h(self, lb) else {
                 la = lb;
                 continue;
