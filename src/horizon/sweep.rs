@@ -251,6 +251,54 @@ unsafe fn load4(p: *const f64, i: std::arch::x86_64::__m256i) -> std::arch::x86_
     )
 }
 
+/// The (distance, height) pairs at the lane indices `i` of `p`, as a vector
+/// of distances and one of heights (four 16-byte loads).
+///
+/// # Safety
+/// The CPU has AVX2; every index and the one after it are in bounds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn load_pairs(
+    p: *const f64,
+    i: std::arch::x86_64::__m256i,
+) -> (std::arch::x86_64::__m256d, std::arch::x86_64::__m256d) {
+    use std::arch::x86_64::*;
+    let a: [i64; 4] = std::mem::transmute(i);
+    let lo = _mm256_set_m128d(
+        _mm_loadu_pd(p.add(a[2] as usize)),
+        _mm_loadu_pd(p.add(a[0] as usize)),
+    );
+    let hi = _mm256_set_m128d(
+        _mm_loadu_pd(p.add(a[3] as usize)),
+        _mm_loadu_pd(p.add(a[1] as usize)),
+    );
+    (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi))
+}
+
+/// Store lane j's pair (w[j], z[j]) at `p` + i[j] (four 16-byte stores).
+///
+/// # Safety
+/// The CPU has AVX2; every index and the one after it are in bounds.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn store_pairs(
+    p: *mut f64,
+    i: std::arch::x86_64::__m256i,
+    w: std::arch::x86_64::__m256d,
+    z: std::arch::x86_64::__m256d,
+) {
+    use std::arch::x86_64::*;
+    let a: [i64; 4] = std::mem::transmute(i);
+    let lo = _mm256_unpacklo_pd(w, z);
+    let hi = _mm256_unpackhi_pd(w, z);
+    _mm_storeu_pd(p.add(a[0] as usize), _mm256_castpd256_pd128(lo));
+    _mm_storeu_pd(p.add(a[1] as usize), _mm256_castpd256_pd128(hi));
+    _mm_storeu_pd(p.add(a[2] as usize), _mm256_extractf128_pd::<1>(lo));
+    _mm_storeu_pd(p.add(a[3] as usize), _mm256_extractf128_pd::<1>(hi));
+}
+
 /// Every line of one direction walked four at a time, one line per lane of
 /// 4-wide f64 vectors (AVX2), each from its far end to its near end with
 /// its own hull stack: the pop loop runs while any lane pops, so its
@@ -289,8 +337,8 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     // once (each lane streams through its own row), along the columns a
     // block of 256 lines 4 steps at a time (the block's cells at one step
     // are a run of one row: every cache line of the grid used up at once,
-    // and few pages at a time). The stacks of group g: lane i's distances
-    // at st[(8g + 2i)·cap ..], its heights at st[(8g + 2i + 1)·cap ..].
+    // and few pages at a time). The stacks of group g: lane i's vertices
+    // as (distance, height) pairs at st[(8g + 2i)·cap ..].
     let (ng, chunk) = if ADJ {
         (LANE_GROUPS, CHUNK_ROWS)
     } else {
@@ -299,7 +347,6 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     let cap = steps.len() + 3;
     let mut st = vec![0.0f64; 8 * ng * cap];
     let one = _mm256_set1_epi64x(1);
-    let two = _mm256_set1_epi64x(2);
     let three = _mm256_set1_epi64x(3);
     let np = _mm256_set1_epi64x(nperp);
     let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
@@ -310,14 +357,14 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     let lane = _mm256_set_epi64x(3, 2, 1, 0);
     let svi = sv as i64;
     let bw = _mm256_set_epi64x(6 * cap as i64, 4 * cap as i64, 2 * cap as i64, 0);
-    let bz = _mm256_add_epi64(bw, _mm256_set1_epi64x(cap as i64));
+    let eight = _mm256_set1_epi64x(8);
     // the shifts are monotone along the walk
     let rising = steps.first().map(|s| s.sh) <= steps.last().map(|s| s.sh);
-    // per group of the block: its state (stack length, top t and the
-    // vertex p below it) and its range of steps
+    // per group of the block: its state (stack length, top t, the vertex
+    // p below it and the vertex q below p) and its range of steps
     let zi = _mm256_setzero_si256();
     let zd = _mm256_setzero_pd();
-    let mut state = vec![(zi, zd, zd, zd, zd); ng];
+    let mut state = vec![(zi, zd, zd, zd, zd, zd, zd); ng];
     let mut range = vec![(0usize, 0usize); ng];
     let mut l0 = -smax;
     let mut nb = 0usize;
@@ -342,7 +389,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                     steps.partition_point(|s| s.sh >= lo),
                 )
             };
-            *stt = (zi, zd, zd, zd, zd);
+            *stt = (zi, zd, zd, zd, zd, zd, zd);
         }
         let mut c0 = 0;
         while c0 < steps.len() {
@@ -363,8 +410,8 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 } else {
                     _mm256_setzero_pd()
                 };
-                // each lane's stack length, top t and the vertex p below it
-                let (mut k, mut tw, mut tz, mut pw, mut pz) = state[gi];
+                // each lane's stack length, top t, p below it and q below p
+                let (mut k, mut tw, mut tz, mut pw, mut pz, mut qw, mut qz) = state[gi];
                 for s in steps.get_unchecked(s0..s1) {
                     // lanes whose cell at this step is on the grid: 0 ≤ l + sh < nperp
                     let v = _mm256_add_epi64(lv, _mm256_set1_epi64x(s.sh));
@@ -406,8 +453,9 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                         (_mm256_set1_pd(s.w), h)
                     };
                     // pop each lane's top while it is on or under the segment from
-                    // the new point to the vertex p below it (both in registers; the
-                    // vertex below p is read ahead, off the chain of comparisons)
+                    // the new point to the vertex p below it (t, p and q in
+                    // registers; the vertex below q is read for the lanes that
+                    // pop, off the chain of comparisons)
                     loop {
                         let can =
                             _mm256_and_pd(fin, _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, one)));
@@ -417,15 +465,21 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                         if _mm256_movemask_pd(pop) == 0 {
                             break;
                         }
-                        // (a lane with fewer than three vertices reads its first one)
-                        let below = _mm256_cmpgt_epi64(k, two);
-                        let ip = _mm256_and_si256(_mm256_sub_epi64(k, three), below);
-                        let qw = load4(sp, _mm256_add_epi64(bw, ip));
-                        let qz = load4(sp, _mm256_add_epi64(bz, ip));
+                        // the vertex below q: pair k − 4 (a lane with fewer than
+                        // four vertices reads its first one)
+                        let kk = _mm256_add_epi64(bw, _mm256_add_epi64(k, k));
+                        let ip = _mm256_blendv_epi8(
+                            bw,
+                            _mm256_sub_epi64(kk, eight),
+                            _mm256_cmpgt_epi64(k, three),
+                        );
+                        let (rw, rz) = load_pairs(sp, ip);
                         tw = _mm256_blendv_pd(tw, pw, pop);
                         tz = _mm256_blendv_pd(tz, pz, pop);
                         pw = _mm256_blendv_pd(pw, qw, pop);
                         pz = _mm256_blendv_pd(pz, qz, pop);
+                        qw = _mm256_blendv_pd(qw, rw, pop);
+                        qz = _mm256_blendv_pd(qz, rz, pop);
                         k = _mm256_add_epi64(k, _mm256_castpd_si256(pop));
                     }
                     let slope = _mm256_div_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(tw, w));
@@ -438,16 +492,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                     let val = _mm256_cvtpd_ps(_mm256_blendv_pd(ninf, slope, has));
                     // push on every lane (above the top of a lane without a cell
                     // here, the value is never read)
-                    let mut iw = [0i64; 4];
-                    let mut wa = [0f64; 4];
-                    let mut za = [0f64; 4];
-                    _mm256_storeu_si256(iw.as_mut_ptr() as *mut __m256i, _mm256_add_epi64(bw, k));
-                    _mm256_storeu_pd(wa.as_mut_ptr(), w);
-                    _mm256_storeu_pd(za.as_mut_ptr(), zz);
-                    for i in 0..4 {
-                        *sp.add(iw[i] as usize) = wa[i];
-                        *sp.add(iw[i] as usize + cap) = za[i];
-                    }
+                    store_pairs(sp, _mm256_add_epi64(bw, _mm256_add_epi64(k, k)), w, zz);
                     let mut va = [0f32; 4];
                     _mm_storeu_ps(va.as_mut_ptr(), val);
                     if ADJ && mfin == 15 {
@@ -464,12 +509,14 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                         }
                     }
                     k = _mm256_sub_epi64(k, _mm256_castpd_si256(fin));
+                    qw = _mm256_blendv_pd(qw, pw, fin);
+                    qz = _mm256_blendv_pd(qz, pz, fin);
                     pw = _mm256_blendv_pd(pw, tw, fin);
                     pz = _mm256_blendv_pd(pz, tz, fin);
                     tw = _mm256_blendv_pd(tw, w, fin);
                     tz = _mm256_blendv_pd(tz, zz, fin);
                 }
-                state[gi] = (k, tw, tz, pw, pz);
+                state[gi] = (k, tw, tz, pw, pz, qw, qz);
             }
             c0 = c1;
         }
