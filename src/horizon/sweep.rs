@@ -366,6 +366,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     let zd = _mm256_setzero_pd();
     let mut state = vec![(zi, zd, zd, zd, zd, zd, zd); ng];
     let mut range = vec![(0usize, 0usize); ng];
+    let mut full = vec![(0usize, 0usize); ng];
     let mut l0 = -smax;
     let mut nb = 0usize;
     while l0 < nperp - smin {
@@ -374,11 +375,9 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
         }
         nb += 1;
         let ngb = (((nperp - smin - l0 + 3) / 4) as usize).min(ng);
-        for (gi, (r, stt)) in range.iter_mut().zip(state.iter_mut()).take(ngb).enumerate() {
-            let l = l0 + 4 * gi as i64;
-            // the steps where some lane l..l+3 is on the grid: −l − 3 ≤ sh < nperp − l
-            let (lo, hi) = (-l - 3, nperp - l);
-            *r = if rising {
+        // the steps with lo ≤ sh < hi (a range: the shifts are monotone)
+        let between = |lo: i64, hi: i64| {
+            if rising {
                 (
                     steps.partition_point(|s| s.sh < lo),
                     steps.partition_point(|s| s.sh < hi),
@@ -388,8 +387,15 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                     steps.partition_point(|s| s.sh >= hi),
                     steps.partition_point(|s| s.sh >= lo),
                 )
-            };
-            *stt = (zi, zd, zd, zd, zd, zd, zd);
+            }
+        };
+        for gi in 0..ngb {
+            let l = l0 + 4 * gi as i64;
+            // the steps where some lane l..l+3 is on the grid: −l − 3 ≤ sh < nperp − l,
+            // and where all are: −l ≤ sh < nperp − l − 3
+            range[gi] = between(-l - 3, nperp - l);
+            full[gi] = between(-l, nperp - l - 3);
+            state[gi] = (zi, zd, zd, zd, zd, zd, zd);
         }
         let mut c0 = 0;
         while c0 < steps.len() {
@@ -412,109 +418,138 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 };
                 // each lane's stack length, top t, p below it and q below p
                 let (mut k, mut tw, mut tz, mut pw, mut pz, mut qw, mut qz) = state[gi];
-                for s in steps.get_unchecked(s0..s1) {
-                    // lanes whose cell at this step is on the grid: 0 ≤ l + sh < nperp
-                    let v = _mm256_add_epi64(lv, _mm256_set1_epi64x(s.sh));
-                    let inr = _mm256_castsi256_pd(_mm256_andnot_si256(
-                        _mm256_cmpgt_epi64(_mm256_setzero_si256(), v),
-                        _mm256_cmpgt_epi64(np, v),
-                    ));
-                    let minr = _mm256_movemask_pd(inr);
-                    let q = _mm256_add_epi64(_mm256_set1_epi64x(s.q0), off);
-                    let h = if ADJ && minr == 15 {
-                        _mm256_loadu_pd(zp.add((s.q0 + ob) as usize))
-                    } else {
-                        // (a lane off the grid reads the first cell)
-                        load4(zp, _mm256_and_si256(q, _mm256_castpd_si256(inr)))
-                    };
-                    let fin = _mm256_and_pd(
-                        inr,
-                        _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(h, abs_mask), inf),
-                    );
-                    let mfin = _mm256_movemask_pd(fin);
-                    let mut qa = [0i64; 4];
-                    _mm256_storeu_si256(qa.as_mut_ptr() as *mut __m256i, q);
-                    if mfin != minr {
-                        // ±inf or NaN: no data
-                        for (i, &qi) in qa.iter().enumerate() {
-                            if (minr & !mfin) >> i & 1 != 0 {
-                                *op.add(qi as usize) = f32::NAN;
+                // One step of the group's four lines; `$full`: every lane's
+                // cell is on the grid.
+                macro_rules! step {
+                    ($s:expr, $full:literal) => {{
+                        let s: &Step = $s;
+                        // the cells of lanes 0..4 at this step: base + i·sv
+                        let base = s.q0 + ob;
+                        let (minr, inr, h, qa) = if $full {
+                            // every lane on the grid
+                            let h = if ADJ {
+                                _mm256_loadu_pd(zp.add(base as usize))
+                            } else {
+                                _mm256_set_pd(
+                                    *zp.add((base + 3 * svi) as usize),
+                                    *zp.add((base + 2 * svi) as usize),
+                                    *zp.add((base + svi) as usize),
+                                    *zp.add(base as usize),
+                                )
+                            };
+                            let qa = [base, base + svi, base + 2 * svi, base + 3 * svi];
+                            (15, zd, h, qa)
+                        } else {
+                            // lanes whose cell at this step is on the grid: 0 ≤ l + sh < nperp
+                            let v = _mm256_add_epi64(lv, _mm256_set1_epi64x(s.sh));
+                            let inr = _mm256_castsi256_pd(_mm256_andnot_si256(
+                                _mm256_cmpgt_epi64(zi, v),
+                                _mm256_cmpgt_epi64(np, v),
+                            ));
+                            let q = _mm256_add_epi64(_mm256_set1_epi64x(s.q0), off);
+                            // (a lane off the grid reads the first cell)
+                            let h = load4(zp, _mm256_and_si256(q, _mm256_castpd_si256(inr)));
+                            let qa: [i64; 4] = std::mem::transmute(q);
+                            (_mm256_movemask_pd(inr), inr, h, qa)
+                        };
+                        let fin = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(h, abs_mask), inf);
+                        let fin = if $full { fin } else { _mm256_and_pd(inr, fin) };
+                        let mfin = _mm256_movemask_pd(fin);
+                        if mfin != minr {
+                            // ±inf or NaN: no data
+                            for (i, &qi) in qa.iter().enumerate() {
+                                if (minr & !mfin) >> i & 1 != 0 {
+                                    *op.add(qi as usize) = f32::NAN;
+                                }
+                            }
+                            if mfin == 0 {
+                                continue;
                             }
                         }
-                        if mfin == 0 {
-                            continue;
+                        let (w, zz) = if CURV {
+                            let w = _mm256_add_pd(_mm256_set1_pd(s.w), wl);
+                            // Z = z − c·w²
+                            (w, _mm256_sub_pd(h, _mm256_mul_pd(_mm256_mul_pd(cv, w), w)))
+                        } else {
+                            (_mm256_set1_pd(s.w), h)
+                        };
+                        // pop each lane's top while it is on or under the segment from
+                        // the new point to the vertex p below it (t, p and q in
+                        // registers; the vertex below q is read for the lanes that
+                        // pop, off the chain of comparisons)
+                        loop {
+                            let can =
+                                _mm256_and_pd(fin, _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, one)));
+                            let lhs = _mm256_mul_pd(_mm256_sub_pd(pz, zz), _mm256_sub_pd(tw, w));
+                            let rhs = _mm256_mul_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(pw, w));
+                            let pop = _mm256_and_pd(can, _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs));
+                            if _mm256_movemask_pd(pop) == 0 {
+                                break;
+                            }
+                            // the vertex below q: pair k − 4 (a lane with fewer than
+                            // four vertices reads its first one)
+                            let kk = _mm256_add_epi64(bw, _mm256_add_epi64(k, k));
+                            let ip = _mm256_blendv_epi8(
+                                bw,
+                                _mm256_sub_epi64(kk, eight),
+                                _mm256_cmpgt_epi64(k, three),
+                            );
+                            let (rw, rz) = load_pairs(sp, ip);
+                            tw = _mm256_blendv_pd(tw, pw, pop);
+                            tz = _mm256_blendv_pd(tz, pz, pop);
+                            pw = _mm256_blendv_pd(pw, qw, pop);
+                            pz = _mm256_blendv_pd(pz, qz, pop);
+                            qw = _mm256_blendv_pd(qw, rw, pop);
+                            qz = _mm256_blendv_pd(qz, rz, pop);
+                            k = _mm256_add_epi64(k, _mm256_castpd_si256(pop));
                         }
-                    }
-                    let (w, zz) = if CURV {
-                        let w = _mm256_add_pd(_mm256_set1_pd(s.w), wl);
-                        // Z = z − c·w²
-                        (w, _mm256_sub_pd(h, _mm256_mul_pd(_mm256_mul_pd(cv, w), w)))
-                    } else {
-                        (_mm256_set1_pd(s.w), h)
-                    };
-                    // pop each lane's top while it is on or under the segment from
-                    // the new point to the vertex p below it (t, p and q in
-                    // registers; the vertex below q is read for the lanes that
-                    // pop, off the chain of comparisons)
-                    loop {
-                        let can =
-                            _mm256_and_pd(fin, _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, one)));
-                        let lhs = _mm256_mul_pd(_mm256_sub_pd(pz, zz), _mm256_sub_pd(tw, w));
-                        let rhs = _mm256_mul_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(pw, w));
-                        let pop = _mm256_and_pd(can, _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs));
-                        if _mm256_movemask_pd(pop) == 0 {
-                            break;
-                        }
-                        // the vertex below q: pair k − 4 (a lane with fewer than
-                        // four vertices reads its first one)
-                        let kk = _mm256_add_epi64(bw, _mm256_add_epi64(k, k));
-                        let ip = _mm256_blendv_epi8(
-                            bw,
-                            _mm256_sub_epi64(kk, eight),
-                            _mm256_cmpgt_epi64(k, three),
-                        );
-                        let (rw, rz) = load_pairs(sp, ip);
-                        tw = _mm256_blendv_pd(tw, pw, pop);
-                        tz = _mm256_blendv_pd(tz, pz, pop);
-                        pw = _mm256_blendv_pd(pw, qw, pop);
-                        pz = _mm256_blendv_pd(pz, qz, pop);
-                        qw = _mm256_blendv_pd(qw, rw, pop);
-                        qz = _mm256_blendv_pd(qz, rz, pop);
-                        k = _mm256_add_epi64(k, _mm256_castpd_si256(pop));
-                    }
-                    let slope = _mm256_div_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(tw, w));
-                    let slope = if CURV {
-                        _mm256_add_pd(slope, _mm256_mul_pd(c2, w))
-                    } else {
-                        slope
-                    };
-                    let has = _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, _mm256_setzero_si256()));
-                    let val = _mm256_cvtpd_ps(_mm256_blendv_pd(ninf, slope, has));
-                    // push on every lane (above the top of a lane without a cell
-                    // here, the value is never read)
-                    store_pairs(sp, _mm256_add_epi64(bw, _mm256_add_epi64(k, k)), w, zz);
-                    let mut va = [0f32; 4];
-                    _mm_storeu_ps(va.as_mut_ptr(), val);
-                    if ADJ && mfin == 15 {
-                        _mm_storeu_ps(op.add(qa[0] as usize), val);
-                    } else if mfin == 15 {
-                        for i in 0..4 {
-                            *op.add(qa[i] as usize) = va[i];
-                        }
-                    } else {
-                        for i in 0..4 {
-                            if mfin >> i & 1 != 0 {
+                        let slope = _mm256_div_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(tw, w));
+                        let slope = if CURV {
+                            _mm256_add_pd(slope, _mm256_mul_pd(c2, w))
+                        } else {
+                            slope
+                        };
+                        let has =
+                            _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, _mm256_setzero_si256()));
+                        let val = _mm256_cvtpd_ps(_mm256_blendv_pd(ninf, slope, has));
+                        // push on every lane (above the top of a lane without a cell
+                        // here, the value is never read)
+                        store_pairs(sp, _mm256_add_epi64(bw, _mm256_add_epi64(k, k)), w, zz);
+                        let mut va = [0f32; 4];
+                        _mm_storeu_ps(va.as_mut_ptr(), val);
+                        if ADJ && mfin == 15 {
+                            _mm_storeu_ps(op.add(qa[0] as usize), val);
+                        } else if mfin == 15 {
+                            for i in 0..4 {
                                 *op.add(qa[i] as usize) = va[i];
                             }
+                        } else {
+                            for i in 0..4 {
+                                if mfin >> i & 1 != 0 {
+                                    *op.add(qa[i] as usize) = va[i];
+                                }
+                            }
                         }
-                    }
-                    k = _mm256_sub_epi64(k, _mm256_castpd_si256(fin));
-                    qw = _mm256_blendv_pd(qw, pw, fin);
-                    qz = _mm256_blendv_pd(qz, pz, fin);
-                    pw = _mm256_blendv_pd(pw, tw, fin);
-                    pz = _mm256_blendv_pd(pz, tz, fin);
-                    tw = _mm256_blendv_pd(tw, w, fin);
-                    tz = _mm256_blendv_pd(tz, zz, fin);
+                        k = _mm256_sub_epi64(k, _mm256_castpd_si256(fin));
+                        qw = _mm256_blendv_pd(qw, pw, fin);
+                        qz = _mm256_blendv_pd(qz, pz, fin);
+                        pw = _mm256_blendv_pd(pw, tw, fin);
+                        pz = _mm256_blendv_pd(pz, tz, fin);
+                        tw = _mm256_blendv_pd(tw, w, fin);
+                        tz = _mm256_blendv_pd(tz, zz, fin);
+                    }};
+                }
+                // the steps where all four lanes are on the grid
+                let a = full[gi].0.clamp(s0, s1);
+                let b = full[gi].1.clamp(a, s1);
+                for s in steps.get_unchecked(s0..a) {
+                    step!(s, false);
+                }
+                for s in steps.get_unchecked(a..b) {
+                    step!(s, true);
+                }
+                for s in steps.get_unchecked(b..s1) {
+                    step!(s, false);
                 }
                 state[gi] = (k, tw, tz, pw, pz, qw, qz);
             }
