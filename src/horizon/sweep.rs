@@ -303,12 +303,16 @@ unsafe fn store_pairs(
 /// 4-wide f64 vectors (AVX2), each from its far end to its near end with
 /// its own hull stack: the pop loop runs while any lane pops, so its
 /// unpredictable exit is taken once per four cells. Each lane keeps its top
-/// vertex t and the vertex p below it in registers, so the pop test needs
-/// no load; the vertex below p is read ahead, off the chain of comparisons.
-/// The four lines are neighbours: with the lines along the rows each lane
-/// reads and writes its own row forwards (four sequential streams) and a
-/// whole line is walked at once; along the columns (`ADJ`) the group's
-/// cells at one step are adjacent, read and written as one vector. Per lane
+/// three vertices t, p and q in registers, so the pop test needs no load
+/// and the vertex below q, read when a lane pops, is off the chain of
+/// comparisons; the stacks hold (distance, height) pairs, one 16-byte store
+/// or load per lane. The four lines are neighbours: with the lines along
+/// the rows each lane reads and writes its own row forwards (four
+/// sequential streams) and a whole line is walked at once; along the
+/// columns (`ADJ`) the group's cells at one step are adjacent, read and
+/// written as one vector. The steps where all four lanes are on the grid
+/// (all but a few near the grid's edges) skip the per-lane range test and
+/// address their cells from one base. Per lane
 /// the operations and their order are those of [`walk`] (no FMA), so the
 /// slopes are bit-identical.
 ///
