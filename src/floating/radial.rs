@@ -41,12 +41,14 @@ type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
 /// pixel): one list per azimuth bin and one of the filled holes.
 pub type PixelLists = Vec<Vec<(usize, Pixel)>>;
 
-/// One pixel's ray in the radial frame: pixel index and pseudo-elevation
-/// tan(θ/2) (see [`elevation`]).
+/// One pixel's ray in the radial frame: pixel index, pseudo-elevation
+/// tan(θ/2) (see [`elevation`]) and unit direction (bit for bit
+/// [`crate::camera::Camera::ray`]'s).
 #[derive(Debug, Clone, Copy)]
 struct Ray {
     k: u32,
     theta: f64,
+    dir: DVec3,
 }
 
 /// Render a perspective view: the pixels where the surface is seen (each
@@ -452,10 +454,10 @@ impl<'b> Runs<'b> {
     }
 
     /// The ray of pixel (i, j), bit for bit [`crate::camera::Camera::ray`]'s
-    /// direction, given y·up for its row: its horizontal components and its
-    /// pseudo-elevation (see [`elevation`]).
+    /// direction, given y·up for its row, and its pseudo-elevation (see
+    /// [`elevation`]).
     #[inline(always)]
-    fn ray(&self, yu: DVec3, j: usize) -> (f64, f64, f64) {
+    fn ray(&self, yu: DVec3, j: usize) -> (DVec3, f64) {
         // The operations of `Camera::pixel_to_screen` and `Camera::ray` (F·d
         // + x·r + y·up, normalised by the reciprocal of its length), in the
         // same order, with the products that do not depend on the column
@@ -470,7 +472,7 @@ impl<'b> Runs<'b> {
         let rl = 1.0 / (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
         let d = DVec3::new(v.x * rl, v.y * rl, v.z * rl);
         let hl = (d.x * d.x + d.y * d.y).sqrt();
-        (d.x, d.y, elevation(d.z, hl))
+        (d, elevation(d.z, hl))
     }
 
     /// The columns of row screen-y `y` where L_e > t for edge e; None where
@@ -526,8 +528,8 @@ impl<'b> Runs<'b> {
         let mut seen = vec![false; n];
         let mut mark = |i: usize, j: usize| {
             let yu = self.y(i) * self.up;
-            let (dx, dy, _) = self.ray(yu, j);
-            seen[self.bins.of(dx, dy)] = true;
+            let (d, _) = self.ray(yu, j);
+            seen[self.bins.of(d.x, d.y)] = true;
         };
         for j in 0..w {
             mark(0, j);
@@ -593,6 +595,7 @@ impl<'b> Runs<'b> {
         }
         gs.dx.resize(w, 0.0);
         gs.dy.resize(w, 0.0);
+        gs.dz.resize(w, 0.0);
         gs.th.resize(w, 0.0);
         let (e0, e1) = (self.bins.edge[g0], self.bins.edge[g1]);
         // A group as wide as a quarter turn or more: every pixel tested.
@@ -616,25 +619,38 @@ impl<'b> Runs<'b> {
                 continue;
             }
             let yu = y * self.up;
-            let (dxs, dys, ths) = (&mut gs.dx[lo..hi], &mut gs.dy[lo..hi], &mut gs.th[lo..hi]);
+            let (dxs, dys, dzs, ths) = (
+                &mut gs.dx[lo..hi],
+                &mut gs.dy[lo..hi],
+                &mut gs.dz[lo..hi],
+                &mut gs.th[lo..hi],
+            );
             // In plain arrays, so that the loop vectorises.
-            for (m, ((dx, dy), th)) in dxs
+            for (m, (((dx, dy), dz), th)) in dxs
                 .iter_mut()
                 .zip(dys.iter_mut())
+                .zip(dzs.iter_mut())
                 .zip(ths.iter_mut())
                 .enumerate()
             {
-                (*dx, *dy, *th) = self.ray(yu, lo + m);
+                let (d, t) = self.ray(yu, lo + m);
+                (*dx, *dy, *dz, *th) = (d.x, d.y, d.z, t);
             }
             let base = i * w;
             let mut b = usize::MAX;
-            for (m, ((&dx, &dy), &theta)) in dxs.iter().zip(dys.iter()).zip(ths.iter()).enumerate()
+            for (m, (((&dx, &dy), &dz), &theta)) in dxs
+                .iter()
+                .zip(dys.iter())
+                .zip(dzs.iter())
+                .zip(ths.iter())
+                .enumerate()
             {
                 b = self.bins.near(b, dx, dy);
                 if let Some(list) = gs.lists[..nl].get_mut(b.wrapping_sub(g0)) {
                     list.push(Ray {
                         k: (base + lo + m) as u32,
                         theta,
+                        dir: DVec3::new(dx, dy, dz),
                     });
                 }
             }
@@ -652,6 +668,7 @@ struct GroupScratch {
     lists: Vec<Vec<Ray>>,
     dx: Vec<f64>,
     dy: Vec<f64>,
+    dz: Vec<f64>,
     th: Vec<f64>,
 }
 
@@ -1147,15 +1164,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 
     /// Direction of ray `k` of this sweep (its pixel centre shifted by the
     /// pass's sub-pixel offset).
+    #[inline]
     fn ray_dir(&self, k: usize) -> DVec3 {
-        // Pixel indices are u32 (so is the width of any image with them).
-        let w = self.ctx.cam.width as u32;
-        let pix = self.rays[k].k;
-        let (i, j) = (pix / w, pix % w);
-        self.ctx
-            .cam
-            .ray(i as f64 + self.off.0, j as f64 + self.off.1)
-            .1
+        self.rays[k].dir
     }
 
     /// The shading of the span from a to b at its end nearest to elevation
@@ -1751,6 +1762,10 @@ mod tests {
                             let (_, d) = cam.ray(i as f64 + off.0, j as f64 + off.1);
                             let t = elevation(d.z, (d.x * d.x + d.y * d.y).sqrt());
                             assert_eq!(ray.theta.to_bits(), t.to_bits());
+                            assert_eq!(
+                                ray.dir.to_array().map(f64::to_bits),
+                                d.to_array().map(f64::to_bits)
+                            );
                         }
                     }
                 }
