@@ -582,10 +582,14 @@ impl<'b> Runs<'b> {
         out
     }
 
-    /// The rays of bins g0..g1 (pixel index and elevation), row-major, into
-    /// `gs.lists[b − g0]`. Each row's pixels between the group's outer edges
-    /// (one run, see [`Runs`]) take their bins from [`Bins::near`], walked
-    /// along the row, as a whole-image binning would give them.
+    /// The rays of bins g0..g1 (pixel index, elevation, direction) into
+    /// `gs.lists[b − g0]`, row by row, the rows in the order in which the
+    /// elevation grows along a bin's line when the screen's up is upwards
+    /// (bottom to top; else top to bottom), the columns of a row ascending,
+    /// so that the bin's sort by θ has little to do. Each row's pixels
+    /// between the group's outer edges (one run, see [`Runs`]) take their
+    /// bins from [`Bins::near`], walked along the row, as a whole-image
+    /// binning would give them.
     fn group_rays(&self, g0: usize, g1: usize, gs: &mut GroupScratch) {
         let (w, h) = (self.w, self.h);
         let nl = g1 - g0;
@@ -601,7 +605,9 @@ impl<'b> Runs<'b> {
         // A group as wide as a quarter turn or more: every pixel tested.
         let whole = self.exact_only || 4 * nl >= self.bins.n;
         let tol = self.tol;
-        for i in 0..h {
+        let up = self.up.z >= 0.0;
+        for r in 0..h {
+            let i = if up { h - 1 - r } else { r };
             let y = self.y(i);
             // Possibly in the group: L_g0 > −tol and not L_g1 > tol.
             let (lo, hi) = if whole {
@@ -673,9 +679,9 @@ struct GroupScratch {
 }
 
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
-/// order is too). A bin's pixels come in row-major order, a run of one or a
-/// few per row, along a line of the screen on which θ is monotone: nearly
-/// sorted or nearly reversed, each ray a few places from its own, so that
+/// order is too). A bin's pixels come row by row (see
+/// [`Runs::group_rays`]), a run of one or a few per row, along a line of the
+/// screen on which θ is monotone: nearly sorted or nearly reversed, each ray a few places from its own, so that
 /// an insertion sort after an optional reversal takes a few moves per ray.
 fn sort_rays(rays: &mut [Ray]) {
     let before = |x: &Ray, y: &Ray| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt();
@@ -994,8 +1000,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// Ready the sweep for the bin of azimuth φ whose rays are `rays` (in
-    /// row-major order), as [`Self::new`] would make it, keeping its
+    /// Ready the sweep for the bin of azimuth φ whose rays are `rays` (row
+    /// by row), as [`Self::new`] would make it, keeping its
     /// buffers (one sweep serves many bins in turn).
     /// Returns the previous rays' buffer (cleared).
     fn reset(&mut self, phi: f64, rays: Vec<Ray>) -> Vec<Ray> {
@@ -1753,9 +1759,8 @@ mod tests {
                     runs.group_rays(g0, g1, &mut gs);
                     for b in g0..g1 {
                         let rays = &gs.lists[b - g0];
-                        for (m, ray) in rays.iter().enumerate() {
+                        for ray in rays {
                             let k = ray.k as usize;
-                            assert!(m == 0 || rays[m - 1].k < ray.k, "row-major");
                             assert_eq!(seen[k], usize::MAX, "pixel {k} twice");
                             seen[k] = b;
                             let (i, j) = (k / w, k % w);
