@@ -694,6 +694,10 @@ fn sort_rays(rays: &mut [Ray]) {
     }
     let mut moves = 0usize;
     for i in 1..n {
+        if !before(&rays[i], &rays[i - 1]) {
+            // In place already (the common case).
+            continue;
+        }
         let x = rays[i];
         let mut j = i;
         while j > 0 && before(&x, &rays[j - 1]) {
