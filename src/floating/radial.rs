@@ -18,7 +18,10 @@
 //! exact. Pixels are grouped by the azimuth φ of their ray into bins narrow
 //! enough that a pixel lies within half a pixel of its bin's plane; each pixel
 //! takes its span from its bin's sweep (by its own θ) and, with `refine`, is
-//! solved on its own ray.
+//! solved on its own ray. A bin is the wedge of the screen between two lines
+//! through that vanishing point, one run of pixels per row: each task takes
+//! a few neighbouring bins, generates their rays row by row from those runs
+//! and sweeps them (no binning of the whole image, no scatter of its pixels).
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
@@ -38,12 +41,14 @@ type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
 /// pixel): one list per azimuth bin and one of the filled holes.
 pub type PixelLists = Vec<Vec<(usize, Pixel)>>;
 
-/// One pixel's ray in the radial frame: pixel index and pseudo-elevation
-/// tan(θ/2) (see [`elevation`]).
+/// One pixel's ray in the radial frame: pixel index, pseudo-elevation
+/// tan(θ/2) (see [`elevation`]) and unit direction (bit for bit
+/// [`crate::camera::Camera::ray`]'s).
 #[derive(Debug, Clone, Copy)]
 struct Ray {
     k: u32,
     theta: f64,
+    dir: DVec3,
 }
 
 /// Render a perspective view: the pixels where the surface is seen (each
@@ -103,163 +108,78 @@ pub(crate) fn render_radial(
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
     let bins = Bins::new(nb);
-    // Bin and pseudo-elevation of every pixel, in blocks of rows in
-    // parallel (along a row each pixel's bin is walked to from its left
-    // neighbour's), each block counting its pixels per bin; then a counting
-    // sort by bin: each bin's slots (in block order), and each block places
-    // its pixels in its own slots. The order within a bin depends on the
-    // blocks, hence on the thread count; its sort by θ (ties by pixel
-    // index) makes it unique.
+    // Each bin generates its own rays, row by row (see [`Runs`]): no
+    // binning of the whole image, no scatter into bins. Its rays' order is
+    // settled by their sort by θ (ties by pixel index), whatever the order
+    // they come in.
     let n = w * h;
-    let rows = h.div_ceil(4 * rayon::current_num_threads().max(1)).max(1);
-    let block = (w * rows).max(1);
-    let mut bin_of = ScratchArray::<u32>::any(n);
-    let mut theta_of = ScratchArray::<f64>::any(n);
-    let mut slots: Vec<Vec<u32>> = bin_of
-        .par_chunks_mut(block)
-        .zip(theta_of.par_chunks_mut(block))
-        .enumerate()
-        .map(|(m, (bs, ts))| {
-            let mut count = vec![0u32; nb];
-            let (mut dx, mut dy) = (vec![0.0; w], vec![0.0; w]);
-            for (r, (brow, trow)) in bs.chunks_mut(w).zip(ts.chunks_mut(w)).enumerate() {
-                let i = m * rows + r;
-                row_rays(cam, i as f64 + off.0, off.1, &mut dx, &mut dy, trow);
-                let mut b = usize::MAX;
-                for ((bj, &x), &y) in brow.iter_mut().zip(&dx).zip(&dy) {
-                    b = bins.near(b, x, y);
-                    *bj = b as u32;
-                    count[b] += 1;
-                }
-            }
-            count
-        })
-        .collect();
-    let mut start = vec![0usize; nb + 1];
-    for b in 0..nb {
-        let mut at = start[b];
-        for s in slots.iter_mut() {
-            let c = s[b] as usize;
-            s[b] = at as u32;
-            at += c;
-        }
-        start[b + 1] = at;
-    }
-    // The sorted rays, as pixel indices and elevations.
-    let mut ray_k = ScratchArray::<u32>::any(n);
-    let mut ray_th = ScratchArray::<f64>::any(n);
-    let dst = RayOut {
-        n,
-        k: ray_k.as_mut_ptr(),
-        theta: ray_th.as_mut_ptr(),
-    };
-    bin_of
-        .par_chunks(block)
-        .zip(theta_of.par_chunks(block))
-        .zip(slots.par_iter_mut())
-        .enumerate()
-        .for_each(|(m, ((bs, ts), next))| {
-            // Column by column in tiles of a few rows: a bin is a line of
-            // the screen through the vanishing point of the verticals, so
-            // that consecutive pixels of a column mostly share a bin and the
-            // writes stay within a few pages (row by row, each lands in
-            // another bin's run). Each bin's pixels are then in row-major
-            // order up to the tiles, which its sort by θ settles.
-            // The columns of each half are taken in the direction the bins
-            // take going down the screen (towards the centre column, where
-            // the vanishing point lies, when it is below; away from it when
-            // above), so that a bin's pixels keep their row order.
-            let rows_here = bs.len() / w;
-            let c = w / 2;
-            let down = cam.d.z <= 0.0;
-            let (left, right): (Vec<usize>, Vec<usize>) = if down {
-                ((0..c).collect(), (c..w).rev().collect())
-            } else {
-                ((0..c).rev().collect(), (c..w).collect())
-            };
-            for t0 in (0..rows_here).step_by(TILE) {
-                let t1 = (t0 + TILE).min(rows_here);
-                for &j in left.iter().chain(&right) {
-                    // The next slot of the current bin in a register, stored
-                    // back when the bin changes (the column's pixels mostly
-                    // share one).
-                    let mut b = bs[t0 * w + j] as usize;
-                    let mut slot = next[b];
-                    for r in t0..t1 {
-                        let q = r * w + j;
-                        let bq = bs[q] as usize;
-                        if bq != b {
-                            next[b] = slot;
-                            b = bq;
-                            slot = next[b];
-                        }
-                        // SAFETY: the slots of all blocks and bins partition
-                        // 0..n (each block has its own run of slots in every
-                        // bin).
-                        unsafe { dst.put(slot as usize, (m * block + q) as u32, ts[q]) };
-                        slot += 1;
-                    }
-                    next[b] = slot;
-                }
-            }
-        });
-    drop(bin_of);
-    drop(slots);
-    let groups: Vec<usize> = (0..nb).filter(|&b| start[b + 1] > start[b]).collect();
+    let runs = Runs::new(cam, &bins, off);
+    let cands = runs.candidates();
     // Which pixels are set and their depths, compactly (for the hole
     // filling): written by the bins (each its own pixels) when they write
-    // their pixels directly, else gathered from their lists. The depths
-    // reuse the elevations' memory: a depth is read only where its pixel is
-    // set, which writes it.
+    // their pixels directly, else gathered from their lists. A depth is
+    // read only where its pixel is set, which writes it.
     let mut set = ScratchArray::<bool>::zeroed(n);
-    let mut depth = theta_of;
+    let mut depth = ScratchArray::<f64>::any(n);
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
         n: w * h,
         set: set.as_mut_ptr(),
         depth: depth.as_mut_ptr(),
     };
-    let results: Vec<Result<BinResult>> = groups
+    let groups = runs.groups(&cands);
+    let results: Vec<Result<Vec<BinResult>>> = groups
         .par_iter()
         .map_init(
-            || RadialSweep::new(ctx, 0.0, &[]),
-            |sw, &b| {
+            || (RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default()),
+            |(sw, gs), &(g0, g1)| {
                 cancel.check()?;
-                let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
-                let (s0, s1) = (start[b], start[b + 1]);
-                sw.reset(phi, &ray_k[s0..s1], &ray_th[s0..s1]);
-                sw.off = off;
-                let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
-                sw.ppr = bin_ppr(cam, phi, th0, th1);
-                if ctx.opts.coverage {
-                    sw.start_coverage();
-                }
-                sw.run();
-                sw.solve();
-                sw.finish_coverage();
-                let stats = std::mem::take(&mut sw.stats);
-                if let Some(out) = direct {
-                    for (k, p) in &sw.out {
-                        // SAFETY: the bins partition the pixels and a bin lists
-                        // each of its pixels once, so no other thread touches
-                        // pixel k. Without coverage a bin lists set pixels
-                        // only.
-                        unsafe {
-                            out.put_set(*k, p);
-                            marks.put(*k, p);
-                        }
+                runs.group_rays(g0, g1, gs);
+                let mut res = Vec::new();
+                for b in g0..g1 {
+                    let rays = std::mem::take(&mut gs.lists[b - g0]);
+                    if rays.is_empty() {
+                        gs.lists[b - g0] = rays;
+                        continue;
                     }
-                    Ok((Vec::new(), stats))
-                } else {
-                    Ok((std::mem::take(&mut sw.out), stats))
+                    cancel.check()?;
+                    let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                    // The sweep's previous rays become the list's buffer.
+                    gs.lists[b - g0] = sw.reset(phi, rays);
+                    sw.off = off;
+                    let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
+                    sw.ppr = bin_ppr(cam, phi, th0, th1);
+                    if ctx.opts.coverage {
+                        sw.start_coverage();
+                    }
+                    sw.run();
+                    sw.solve();
+                    sw.finish_coverage();
+                    let stats = std::mem::take(&mut sw.stats);
+                    if let Some(out) = direct {
+                        for (k, p) in &sw.out {
+                            // SAFETY: the bins partition the pixels and a bin
+                            // lists each of its pixels once, so no other thread
+                            // touches pixel k. Without coverage a bin lists set
+                            // pixels only.
+                            unsafe {
+                                out.put_set(*k, p);
+                                marks.put(*k, p);
+                            }
+                        }
+                        res.push((Vec::new(), stats));
+                    } else {
+                        res.push((std::mem::take(&mut sw.out), stats));
+                    }
                 }
+                Ok(res)
             },
         )
         .collect();
+    let results = results.into_iter().collect::<Result<Vec<_>>>()?;
     let mut stats = ColumnStats::default();
     let mut all = Vec::with_capacity(results.len() + 1);
-    for r in results {
-        let (px, st) = r?;
+    for (px, st) in results.into_iter().flatten() {
         stats.add(&st);
         if direct.is_none() {
             for &(k, p) in &px {
@@ -288,36 +208,6 @@ pub(crate) fn render_radial(
         }
     }
     Ok((all, stats))
-}
-
-/// Rows per tile of the counting sort's placement (see [`render_radial`]).
-const TILE: usize = 16;
-
-/// The destination of the parallel counting sort: pixel indices and
-/// elevations of the sorted rays.
-struct RayOut {
-    n: usize,
-    k: *mut u32,
-    theta: *mut f64,
-}
-
-// SAFETY: written only through `put`, each slot from one thread only.
-unsafe impl Sync for RayOut {}
-unsafe impl Send for RayOut {}
-
-impl RayOut {
-    /// # Safety
-    /// No other thread writes that slot.
-    #[inline]
-    unsafe fn put(&self, slot: usize, k: u32, theta: f64) {
-        assert!(slot < self.n, "slot out of range");
-        // SAFETY: in bounds of both arrays (length n) and exclusive
-        // (see above).
-        unsafe {
-            self.k.add(slot).write(k);
-            self.theta.add(slot).write(theta);
-        }
-    }
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
@@ -486,28 +376,94 @@ fn fill_holes(
     stats.refine_evals += sw.stats.refine_evals;
 }
 
-/// The horizontal components of the unit ray directions of one row's pixels
-/// (row `row`, columns j + `off_col`), bit for bit those of
-/// [`crate::camera::Camera::ray`], and their pseudo-elevations (see
-/// [`elevation`]); in plain arrays, so that the loop vectorises.
-fn row_rays(
-    cam: &crate::camera::Camera,
-    row: f64,
-    off_col: f64,
-    dx: &mut [f64],
-    dy: &mut [f64],
-    theta: &mut [f64],
-) {
-    // The operations of `Camera::pixel_to_screen` and `Camera::ray` (F·d +
-    // x·r + y·up, normalised by the reciprocal of its length), in the same
-    // order, with the products that do not depend on the column hoisted.
-    let half_w = 0.5 * cam.width as f64;
-    let y = 0.5 * cam.height as f64 - 0.5 - row;
-    let fd = cam.focal * cam.d;
-    let yu = y * cam.up;
-    let r = cam.r;
-    for (j, ((x_out, y_out), t_out)) in dx.iter_mut().zip(dy.iter_mut()).zip(theta).enumerate() {
-        let x = j as f64 + off_col + 0.5 - half_w;
+/// The rays of one bin, generated by the bin itself, row by row.
+///
+/// A pixel (row y, column x on the screen, centred) lies in bin b when its
+/// ray's horizontal direction is counter-clockwise of bin edge b and not of
+/// edge b + 1 ([`Bins::of`]'s tests). Unnormalised, that ray is
+/// v = F·d + x·r + y·up, and the test against an edge e is the sign of
+/// L_e = e × v_h = P0 + y·P1 + x·Q: linear in the column, so that on each
+/// row a bin's pixels are one run (§3.3: the screen image of a vertical
+/// plane through the eye is a line through the vanishing point of the
+/// verticals, and a bin is the wedge between two such lines). The run's
+/// ends come from the two edges' linear equations; a pixel whose L is
+/// within rounding of zero (|L| ≤ 10⁻⁹ of the size of v's terms, about 10⁶
+/// times the rounding of the camera's own computation) is decided by
+/// [`Bins::of`] on its ray, bit for bit [`crate::camera::Camera::ray`].
+struct Runs<'b> {
+    bins: &'b Bins,
+    w: usize,
+    h: usize,
+    off: (f64, f64),
+    fd: DVec3,
+    r: DVec3,
+    up: DVec3,
+    /// Pixel centre x of column j is j + `c0` (up to rounding).
+    c0: f64,
+    tol: f64,
+    /// Few bins (see [`Bins::of`]): every pixel by its ray.
+    exact_only: bool,
+    /// Whether the vanishing point of the verticals is near the image
+    /// (every bin may reach it).
+    vp_near: bool,
+}
+
+/// Columns [lo, hi) of a row: [0, hi), [lo, w), or empty (lo ≥ hi).
+type Half = (usize, usize);
+
+impl<'b> Runs<'b> {
+    fn new(cam: &crate::camera::Camera, bins: &'b Bins, off: (f64, f64)) -> Self {
+        let (w, h) = (cam.width, cam.height);
+        let half_w = 0.5 * w as f64;
+        let half_h = 0.5 * h as f64;
+        let (fd, r, up) = (cam.focal * cam.d, cam.r, cam.up);
+        let size = fd.x.abs()
+            + fd.y.abs()
+            + (half_w + 2.0) * (r.x.abs() + r.y.abs())
+            + (half_h + 2.0) * (up.x.abs() + up.y.abs());
+        // The vanishing point of the verticals: where F·d + x·r + y·up is
+        // vertical (its horizontal part zero), at infinity when no finite x,
+        // y solve it (d horizontal).
+        let det = r.x * up.y - r.y * up.x;
+        let vp_near = if det.abs() > 1e-12 {
+            let x = (-fd.x * up.y + fd.y * up.x) / det;
+            let y = (-r.x * fd.y + r.y * fd.x) / det;
+            !(x.abs() > half_w + 4.0 || y.abs() > half_h + 4.0)
+        } else {
+            false
+        };
+        Runs {
+            bins,
+            w,
+            h,
+            off,
+            fd,
+            r,
+            up,
+            c0: off.1 + 0.5 - half_w,
+            tol: 1e-9 * size,
+            exact_only: bins.n < 8 || !size.is_finite(),
+            vp_near,
+        }
+    }
+
+    /// The screen y of row i (as [`crate::camera::Camera::pixel_to_screen`]).
+    #[inline]
+    fn y(&self, i: usize) -> f64 {
+        0.5 * self.h as f64 - 0.5 - (i as f64 + self.off.0)
+    }
+
+    /// The ray of pixel (i, j), bit for bit [`crate::camera::Camera::ray`]'s
+    /// direction, given y·up for its row, and its pseudo-elevation (see
+    /// [`elevation`]).
+    #[inline(always)]
+    fn ray(&self, yu: DVec3, j: usize) -> (DVec3, f64) {
+        // The operations of `Camera::pixel_to_screen` and `Camera::ray` (F·d
+        // + x·r + y·up, normalised by the reciprocal of its length), in the
+        // same order, with the products that do not depend on the column
+        // hoisted.
+        let (fd, r) = (self.fd, self.r);
+        let x = j as f64 + self.off.1 + 0.5 - 0.5 * self.w as f64;
         let v = DVec3::new(
             fd.x + x * r.x + yu.x,
             fd.y + x * r.y + yu.y,
@@ -516,18 +472,217 @@ fn row_rays(
         let rl = 1.0 / (v.x * v.x + v.y * v.y + v.z * v.z).sqrt();
         let d = DVec3::new(v.x * rl, v.y * rl, v.z * rl);
         let hl = (d.x * d.x + d.y * d.y).sqrt();
-        *x_out = d.x;
-        *y_out = d.y;
-        *t_out = elevation(d.z, hl);
+        (d, elevation(d.z, hl))
+    }
+
+    /// The columns of row screen-y `y` where L_e > t for edge e; None where
+    /// that cannot be told (non-finite terms).
+    #[inline]
+    fn above(&self, e: DVec2, y: f64, t: f64) -> Option<Half> {
+        let (fd, r, up) = (self.fd, self.r, self.up);
+        let w = self.w;
+        let a = (e.x * fd.y - e.y * fd.x) + y * (e.x * up.y - e.y * up.x) - t;
+        let q = e.x * r.y - e.y * r.x;
+        if !(a.is_finite() && q.is_finite()) {
+            return None;
+        }
+        if q == 0.0 {
+            return Some(if a > 0.0 { (0, w) } else { (w, 0) });
+        }
+        // a + q·(j + c0) > 0 ⟺ j beyond z.
+        let z = (-a / q - self.c0).clamp(-1.0, w as f64 + 1.0);
+        Some(if q > 0.0 {
+            (((z.floor() + 1.0).max(0.0) as usize).min(w), w)
+        } else {
+            (0, (z.ceil().max(0.0) as usize).min(w))
+        })
+    }
+
+    /// The columns not in `s` (a [`Half`]).
+    #[inline]
+    fn not(&self, s: Half) -> Half {
+        let w = self.w;
+        let (lo, hi) = s;
+        if lo >= hi {
+            (0, w)
+        } else if lo == 0 && hi == w {
+            (w, 0)
+        } else if lo == 0 {
+            (hi, w)
+        } else {
+            (0, lo)
+        }
+    }
+
+    /// The bins whose rays may include pixels, ascending: all when the
+    /// vanishing point of the verticals is near the image; else the arc of
+    /// bins from the image's border pixels (the azimuths of a convex region
+    /// seen from a point outside it span less than π, the extremes on its
+    /// border), widened by two bins for rounding.
+    fn candidates(&self) -> Vec<usize> {
+        let n = self.bins.n;
+        if self.vp_near || self.exact_only || n < 16 {
+            return (0..n).collect();
+        }
+        let (w, h) = (self.w, self.h);
+        let mut seen = vec![false; n];
+        let mut mark = |i: usize, j: usize| {
+            let yu = self.y(i) * self.up;
+            let (d, _) = self.ray(yu, j);
+            seen[self.bins.of(d.x, d.y)] = true;
+        };
+        for j in 0..w {
+            mark(0, j);
+            mark(h - 1, j);
+        }
+        for i in 0..h {
+            mark(i, 0);
+            mark(i, w - 1);
+        }
+        // The largest circular gap between marked bins lies outside.
+        let marked: Vec<usize> = (0..n).filter(|&b| seen[b]).collect();
+        let (mut gap, mut after) = (0, 0);
+        for (k, &b) in marked.iter().enumerate() {
+            let next = marked[(k + 1) % marked.len()];
+            let g = (next + n - b) % n;
+            let g = if g == 0 { n } else { g };
+            if g > gap {
+                gap = g;
+                after = next;
+            }
+        }
+        if gap <= 8 {
+            return (0..n).collect();
+        }
+        // Bins from `after` − 2 to `after` + (n − gap) + 2, circularly.
+        let span = n - gap + 5;
+        let mut out: Vec<usize> = (0..span).map(|k| (after + n + k - 2) % n).collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// The candidate bins in groups [g0, g1) of consecutive bins, each
+    /// narrower than a quarter turn (so that the pixels between its two
+    /// outer edges are one run per row) and of at most [`GROUP`] bins.
+    fn groups(&self, cands: &[usize]) -> Vec<(usize, usize)> {
+        let g = GROUP.min(self.bins.n / 4).max(1);
+        let mut out = Vec::new();
+        let mut k = 0;
+        while k < cands.len() {
+            let g0 = cands[k];
+            let mut g1 = g0 + 1;
+            k += 1;
+            while k < cands.len() && cands[k] == g1 && g1 - g0 < g {
+                g1 += 1;
+                k += 1;
+            }
+            out.push((g0, g1));
+        }
+        out
+    }
+
+    /// The rays of bins g0..g1 (pixel index, elevation, direction) into
+    /// `gs.lists[b − g0]`, row by row, the rows in the order in which the
+    /// elevation grows along a bin's line when the screen's up is upwards
+    /// (bottom to top; else top to bottom), the columns of a row ascending,
+    /// so that the bin's sort by θ has little to do. Each row's pixels
+    /// between the group's outer edges (one run, see [`Runs`]) take their
+    /// bins from [`Bins::near`], walked along the row, as a whole-image
+    /// binning would give them.
+    fn group_rays(&self, g0: usize, g1: usize, gs: &mut GroupScratch) {
+        let (w, h) = (self.w, self.h);
+        let nl = g1 - g0;
+        gs.lists.resize_with(nl.max(gs.lists.len()), Vec::new);
+        for l in &mut gs.lists[..nl] {
+            l.clear();
+        }
+        gs.dx.resize(w, 0.0);
+        gs.dy.resize(w, 0.0);
+        gs.dz.resize(w, 0.0);
+        gs.th.resize(w, 0.0);
+        let (e0, e1) = (self.bins.edge[g0], self.bins.edge[g1]);
+        // A group as wide as a quarter turn or more: every pixel tested.
+        let whole = self.exact_only || 4 * nl >= self.bins.n;
+        let tol = self.tol;
+        let up = self.up.z >= 0.0;
+        for r in 0..h {
+            let i = if up { h - 1 - r } else { r };
+            let y = self.y(i);
+            // Possibly in the group: L_g0 > −tol and not L_g1 > tol.
+            let (lo, hi) = if whole {
+                (0, w)
+            } else {
+                match (self.above(e0, y, -tol), self.above(e1, y, tol)) {
+                    (Some(m0), Some(m1)) => {
+                        let n1 = self.not(m1);
+                        (m0.0.max(n1.0), m0.1.min(n1.1))
+                    }
+                    _ => (0, w),
+                }
+            };
+            if lo >= hi {
+                continue;
+            }
+            let yu = y * self.up;
+            let (dxs, dys, dzs, ths) = (
+                &mut gs.dx[lo..hi],
+                &mut gs.dy[lo..hi],
+                &mut gs.dz[lo..hi],
+                &mut gs.th[lo..hi],
+            );
+            // In plain arrays, so that the loop vectorises.
+            for (m, (((dx, dy), dz), th)) in dxs
+                .iter_mut()
+                .zip(dys.iter_mut())
+                .zip(dzs.iter_mut())
+                .zip(ths.iter_mut())
+                .enumerate()
+            {
+                let (d, t) = self.ray(yu, lo + m);
+                (*dx, *dy, *dz, *th) = (d.x, d.y, d.z, t);
+            }
+            let base = i * w;
+            let mut b = usize::MAX;
+            for (m, (((&dx, &dy), &dz), &theta)) in dxs
+                .iter()
+                .zip(dys.iter())
+                .zip(dzs.iter())
+                .zip(ths.iter())
+                .enumerate()
+            {
+                b = self.bins.near(b, dx, dy);
+                if let Some(list) = gs.lists[..nl].get_mut(b.wrapping_sub(g0)) {
+                    list.push(Ray {
+                        k: (base + lo + m) as u32,
+                        theta,
+                        dir: DVec3::new(dx, dy, dz),
+                    });
+                }
+            }
+        }
     }
 }
 
+/// Bins per group of [`Runs::group_rays`] (one task: its rays, then its
+/// sweeps).
+const GROUP: usize = 32;
+
+/// Buffers of [`Runs::group_rays`], kept between groups.
+#[derive(Default)]
+struct GroupScratch {
+    lists: Vec<Vec<Ray>>,
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    dz: Vec<f64>,
+    th: Vec<f64>,
+}
+
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
-/// order is too). A bin's pixels come in row-major order up to the tiles of
-/// the placement, along a line of the screen on which θ is monotone: nearly
-/// sorted or nearly reversed, each ray a few places from its own (at most a
-/// tile's pixels of the bin), so that an insertion sort after an optional
-/// reversal takes a few moves per ray.
+/// order is too). A bin's pixels come row by row (see
+/// [`Runs::group_rays`]), a run of one or a few per row, along a line of the
+/// screen on which θ is monotone: nearly sorted or nearly reversed, each ray a few places from its own, so that
+/// an insertion sort after an optional reversal takes a few moves per ray.
 fn sort_rays(rays: &mut [Ray]) {
     let before = |x: &Ray, y: &Ray| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt();
     let n = rays.len();
@@ -539,6 +694,10 @@ fn sort_rays(rays: &mut [Ray]) {
     }
     let mut moves = 0usize;
     for i in 1..n {
+        if !before(&rays[i], &rays[i - 1]) {
+            // In place already (the common case).
+            continue;
+        }
         let x = rays[i];
         let mut j = i;
         while j > 0 && before(&x, &rays[j - 1]) {
@@ -845,17 +1004,17 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// Ready the sweep for the bin of azimuth φ whose rays are the pixels
-    /// `ks` at elevations `ths` (in row-major order), as [`Self::new`] would
-    /// make it, keeping its buffers (one sweep serves many bins in turn).
-    fn reset(&mut self, phi: f64, ks: &[u32], ths: &[f64]) {
+    /// Ready the sweep for the bin of azimuth φ whose rays are `rays` (row
+    /// by row), as [`Self::new`] would make it, keeping its
+    /// buffers (one sweep serves many bins in turn).
+    /// Returns the previous rays' buffer (cleared).
+    fn reset(&mut self, phi: f64, rays: Vec<Ray>) -> Vec<Ray> {
         self.eh = DVec2::new(phi.cos(), phi.sin());
-        self.rays.clear();
-        self.rays
-            .extend(ks.iter().zip(ths).map(|(&k, &theta)| Ray { k, theta }));
+        let mut old = std::mem::replace(&mut self.rays, rays);
+        old.clear();
         sort_rays(&mut self.rays);
         self.done.clear();
-        self.done.resize(ks.len(), false);
+        self.done.resize(self.rays.len(), false);
         self.cov = Default::default();
         self.out.clear();
         self.stats = ColumnStats::default();
@@ -874,6 +1033,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.ext.clear();
         self.half = 0.0;
         self.edge.clear();
+        old
     }
 
     /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½]
@@ -1014,15 +1174,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 
     /// Direction of ray `k` of this sweep (its pixel centre shifted by the
     /// pass's sub-pixel offset).
+    #[inline]
     fn ray_dir(&self, k: usize) -> DVec3 {
-        // Pixel indices are u32 (so is the width of any image with them).
-        let w = self.ctx.cam.width as u32;
-        let pix = self.rays[k].k;
-        let (i, j) = (pix / w, pix % w);
-        self.ctx
-            .cam
-            .ray(i as f64 + self.off.0, j as f64 + self.off.1)
-            .1
+        self.rays[k].dir
     }
 
     /// The shading of the span from a to b at its end nearest to elevation
@@ -1568,14 +1722,24 @@ mod tests {
     use super::*;
     use crate::camera::{Projection, View};
 
-    /// The vectorised row set-up gives `Camera::ray`'s directions and their
-    /// elevations bit for bit (the bins and the sweeps depend on them).
+    /// Each bin's generated rays are the pixels whose ray [`Bins::of`]
+    /// puts in it, every pixel in exactly one bin among the candidates,
+    /// with `Camera::ray`'s elevation bit for bit (the sweeps depend on
+    /// them): views from above, below and level, the ±π cut of the azimuth
+    /// in the image, the vanishing point inside it, bins wide and narrow.
     #[test]
-    fn row_rays_match_camera_rays() {
-        for (el, az, w, h) in [
-            (30.0, 40.0, 37, 23),
-            (-10.0, 200.0, 8, 61),
-            (89.0, 0.0, 5, 5),
+    fn bin_runs_are_the_bins_of_the_rays() {
+        for (el, az, w, h, nb) in [
+            (30.0, 40.0, 37, 23, 1000),
+            (30.0, 40.0, 64, 48, 100_000),
+            (-10.0, 200.0, 8, 61, 555),
+            (0.0, 180.0, 41, 17, 3000),
+            (12.0, 179.0, 41, 17, 20_000),
+            (89.0, 0.0, 5, 5, 64),
+            (90.0, 30.0, 21, 19, 500),
+            (-90.0, 30.0, 20, 18, 777),
+            (60.0, 300.0, 33, 35, 7),
+            (45.0, 90.0, 13, 11, 12),
         ] {
             let view = View {
                 elevation: el,
@@ -1587,17 +1751,37 @@ mod tests {
                 target: DVec3::new(0.3, -0.2, 0.1),
             };
             let cam = crate::camera::Camera::new(&view, w, h).unwrap();
-            let (mut dx, mut dy, mut th) = (vec![0.0; w], vec![0.0; w], vec![0.0; w]);
+            let bins = Bins::new(nb);
             for off in [(0.0, 0.0), (0.25, -0.375)] {
-                for i in 0..h {
-                    row_rays(&cam, i as f64 + off.0, off.1, &mut dx, &mut dy, &mut th);
-                    for j in 0..w {
-                        let (_, d) = cam.ray(i as f64 + off.0, j as f64 + off.1);
-                        let t = elevation(d.z, (d.x * d.x + d.y * d.y).sqrt());
-                        assert_eq!(dx[j].to_bits(), d.x.to_bits());
-                        assert_eq!(dy[j].to_bits(), d.y.to_bits());
-                        assert_eq!(th[j].to_bits(), t.to_bits());
+                let runs = Runs::new(&cam, &bins, off);
+                let mut seen = vec![usize::MAX; w * h];
+                let mut gs = GroupScratch::default();
+                let cands = runs.candidates();
+                let groups = runs.groups(&cands);
+                assert_eq!(groups.iter().map(|g| g.1 - g.0).sum::<usize>(), cands.len());
+                for (g0, g1) in groups {
+                    runs.group_rays(g0, g1, &mut gs);
+                    for b in g0..g1 {
+                        let rays = &gs.lists[b - g0];
+                        for ray in rays {
+                            let k = ray.k as usize;
+                            assert_eq!(seen[k], usize::MAX, "pixel {k} twice");
+                            seen[k] = b;
+                            let (i, j) = (k / w, k % w);
+                            let (_, d) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+                            let t = elevation(d.z, (d.x * d.x + d.y * d.y).sqrt());
+                            assert_eq!(ray.theta.to_bits(), t.to_bits());
+                            assert_eq!(
+                                ray.dir.to_array().map(f64::to_bits),
+                                d.to_array().map(f64::to_bits)
+                            );
+                        }
                     }
+                }
+                for (k, &b) in seen.iter().enumerate() {
+                    let (i, j) = (k / w, k % w);
+                    let (_, d) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+                    assert_eq!(b, bins.of(d.x, d.y), "view ({el}, {az}), pixel ({i}, {j})");
                 }
             }
         }
