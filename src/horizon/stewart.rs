@@ -326,9 +326,20 @@ pub fn sort_keys_with(
         while end < n && sorted[end] == sorted[start] {
             end += 1;
         }
+        // the keys of a shared bucket are read in an order far from their own
+        for &i in out.iter().skip(start + AHEAD).take(end - start) {
+            prefetch(k1, i as usize);
+        }
         if end - start > 1 {
             let run = &mut out[start..end];
-            run.sort_unstable_by(cmp);
+            // most shared buckets hold two points: one comparison, no sort call
+            if let [x, y] = run {
+                if cmp(y, x).is_lt() {
+                    std::mem::swap(x, y);
+                }
+            } else {
+                run.sort_unstable_by(cmp);
+            }
             if let Some(t) = ties.as_deref_mut() {
                 equal_runs(k1, run, |a, b| {
                     t.push(((start + a) as u32, (start + b) as u32))
@@ -832,7 +843,10 @@ pub fn sector_with(
     // w.src is now in a⊥ order: w.src[s].a == s.
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));
     let dense = n == t.len(); // every point has data: ids[i] == i
-    for (r, &i) in w.src.iter().zip(&w.order) {
+    for (s, (r, &i)) in w.src.iter().zip(&w.order).enumerate() {
+        if let (true, Some(&j)) = (dense, w.order.get(s + AHEAD)) {
+            prefetch(plane, j as usize);
+        }
         let i = if dense { i as usize } else { ids[i as usize] };
         let best = match &limit {
             Some(lim) if !r.best.w.is_nan() && !lim.surely_within(r.p, r.best) => {
