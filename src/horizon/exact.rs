@@ -275,9 +275,8 @@ mod tests {
                 .map(|(p, q, r)| (clamp(p), clamp(q), clamp(r)))
                 .chain([(grid[0], grid[1], grid[2])])
             {
-                let inside = |p: (f64, f64)| {
-                    (w0..=w0 + dw).contains(&p.0) && (z0..=z0 + dz).contains(&p.1)
-                };
+                let inside =
+                    |p: (f64, f64)| (w0..=w0 + dw).contains(&p.0) && (z0..=z0 + dz).contains(&p.1);
                 let bx = if [p, q, r].into_iter().all(inside) {
                     bx
                 } else {

@@ -30,6 +30,12 @@
 //! average size stays below three points, though the queried ones are
 //! larger), searched from the node's previous answer.
 //!
+//! Every orientation test of a sector first compares the rounded
+//! determinant with one error bound valid for all triples of the sector's
+//! points ([`super::exact::BoxFilter`], from their extent in w and Z); the
+//! per-triple filter and the exact sign decide the rest, so every answer is
+//! the exact sign and the horizons stay those of `brute`, bit for bit.
+//!
 //! The near-vertex check of §IV-E is applied by the caller (see
 //! [`super::cms::near_vertex`]) when asked for.
 
@@ -487,7 +493,10 @@ impl Hull {
         };
         self.wmin > p.w
             && best.w > p.w
-            && self.bx.sign((p.w, p.zz), (best.w, best.zz), (cw, self.zmax)) == Some(false)
+            && self
+                .bx
+                .sign((p.w, p.zz), (best.w, best.zz), (cw, self.zmax))
+                == Some(false)
     }
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
@@ -855,10 +864,11 @@ pub fn sector_with(
     // One error bound for every orientation test of this sector (see
     // [`BoxFilter`]): its points' extent in w and Z.
     let (wr, zr) = w.pa.iter().fold(
-        ((f64::INFINITY, f64::NEG_INFINITY), (f64::INFINITY, f64::NEG_INFINITY)),
-        |((wl, wh), (zl, zh)), (q, _)| {
-            ((wl.min(q.w), wh.max(q.w)), (zl.min(q.zz), zh.max(q.zz)))
-        },
+        (
+            (f64::INFINITY, f64::NEG_INFINITY),
+            (f64::INFINITY, f64::NEG_INFINITY),
+        ),
+        |((wl, wh), (zl, zh)), (q, _)| ((wl.min(q.w), wh.max(q.w)), (zl.min(q.zz), zh.max(q.zz))),
     );
     let bx = BoxFilter::new(wr, zr);
     w.hull.bx = bx;
