@@ -47,6 +47,63 @@ pub fn orient_filtered(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bo
     }
 }
 
+/// A first filter for points inside one box (every coordinate of a, b and
+/// c between the box's bounds): one error bound for all such triples, so a
+/// test is the rounded determinant against a constant, without the bound
+/// of [`orient_filtered`] computed per triple. Sound: the rounded
+/// differences are at most the rounded extents (rounding is monotone), so
+/// |detleft| and |detright| are at most P = fl(Δw·Δz) and Shewchuk's bound
+/// fl(ERR·fl(|detleft| + |detright|)) at most fl(ERR·2P); a determinant
+/// beyond that beats the per-triple bound too. Inside it, the per-triple
+/// filter and then the exact sign decide, so every answer is
+/// [`orient_filtered`]'s (a decided sign) or [`orient`]'s.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxFilter {
+    bound: f64,
+}
+
+impl BoxFilter {
+    /// No box: every test goes to the per-triple filter.
+    pub const NONE: BoxFilter = BoxFilter {
+        bound: f64::INFINITY,
+    };
+
+    /// The filter for points with w in `w.0..=w.1` and Z in `z.0..=z.1`
+    /// ([`BoxFilter::NONE`] unless all four are numbers).
+    pub fn new(w: (f64, f64), z: (f64, f64)) -> BoxFilter {
+        const ERR: f64 = (3.0 + 16.0 * f64::EPSILON / 2.0) * (f64::EPSILON / 2.0);
+        let p = (w.1 - w.0) * (z.1 - z.0);
+        let bound = ERR * (p + p);
+        // (a NaN bound, from a NaN or infinite extent, would decide nothing
+        // either, but the comparison below is kept to numbers)
+        if bound.is_nan() || w.0 > w.1 || z.0 > z.1 {
+            BoxFilter::NONE
+        } else {
+            BoxFilter { bound }
+        }
+    }
+
+    /// [`orient_filtered`] for three points of the box.
+    #[inline(always)]
+    pub fn sign(self, a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bool> {
+        let det = (a.0 - c.0) * (b.1 - c.1) - (a.1 - c.1) * (b.0 - c.0);
+        if det > self.bound {
+            Some(true)
+        } else if det < -self.bound {
+            Some(false)
+        } else {
+            orient_filtered_cold(a, b, c)
+        }
+    }
+}
+
+/// [`orient_filtered`] out of line (the rare case of [`BoxFilter::sign`]).
+#[cold]
+#[inline(never)]
+fn orient_filtered_cold(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bool> {
+    orient_filtered(a, b, c)
+}
+
 #[inline]
 fn sign(x: f64) -> i32 {
     if x > 0.0 {
@@ -185,5 +242,58 @@ mod tests {
                 assert_eq!(orient(p, q, r), orient_exact(p, q, r), "{p:?} {q:?} {r:?}");
             }
         }
+    }
+
+    #[test]
+    fn box_filter_decides_only_the_exact_sign() {
+        let mut u = 7u64;
+        let mut unit = || {
+            u ^= u << 13;
+            u ^= u >> 7;
+            u ^= u << 17;
+            (u >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut by_box, mut total) = (0, 0);
+        for case in 0..4000 {
+            // a box, and triples inside it: random, nearly collinear (a
+            // point moved off the line through two others by ulps) and
+            // collinear on a grid line
+            let (w0, z0) = (unit() * 2e3 - 1e3, unit() * 2e3 - 1e3);
+            let (dw, dz) = (unit() * 1e3 * (case % 7) as f64, unit() * 50.0);
+            let bx = BoxFilter::new((w0, w0 + dw), (z0, z0 + dz));
+            let r: Vec<f64> = (0..7).map(|_| unit()).collect();
+            let pt = |i: usize| (w0 + r[i] * dw, z0 + r[i + 1] * dz);
+            let (a, b) = (pt(0), pt(2));
+            let on = (a.0 + r[6] * (b.0 - a.0), a.1 + r[6] * (b.1 - a.1));
+            let nudge = (on.0, f64::from_bits(on.1.to_bits() + (case % 5) as u64));
+            let c = if case % 3 == 0 { pt(4) } else { nudge };
+            let g = (w0.floor(), z0.floor());
+            let grid = [g, (g.0 + 1.0, g.1), (g.0 + 2.0, g.1)];
+            let clamp = |p: (f64, f64)| (p.0.clamp(w0, w0 + dw), p.1.clamp(z0, z0 + dz));
+            for (p, q, r) in [(a, b, c), (c, a, b), (b, c, a), (a, c, b)]
+                .into_iter()
+                .map(|(p, q, r)| (clamp(p), clamp(q), clamp(r)))
+                .chain([(grid[0], grid[1], grid[2])])
+            {
+                let inside =
+                    |p: (f64, f64)| (w0..=w0 + dw).contains(&p.0) && (z0..=z0 + dz).contains(&p.1);
+                let bx = if [p, q, r].into_iter().all(inside) {
+                    bx
+                } else {
+                    BoxFilter::NONE
+                };
+                let want = orient(p, q, r);
+                total += 1;
+                match bx.sign(p, q, r) {
+                    Some(pos) => {
+                        assert_eq!(want, if pos { 1 } else { -1 }, "{p:?} {q:?} {r:?}");
+                        by_box += (orient_filtered(p, q, r) == Some(pos)) as usize;
+                    }
+                    None => assert_eq!(orient_filtered(p, q, r), None),
+                }
+            }
+        }
+        // most triples are decided (by the box bound or the per-triple one)
+        assert!(by_box * 2 > total, "{by_box} of {total}");
     }
 }

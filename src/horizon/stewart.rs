@@ -30,10 +30,16 @@
 //! average size stays below three points, though the queried ones are
 //! larger), searched from the node's previous answer.
 //!
+//! Every orientation test of a sector first compares the rounded
+//! determinant with one error bound valid for all triples of the sector's
+//! points ([`super::exact::BoxFilter`], from their extent in w and Z); the
+//! per-triple filter and the exact sign decide the rest, so every answer is
+//! the exact sign and the horizons stay those of `brute`, bit for bit.
+//!
 //! The near-vertex check of §IV-E is applied by the caller (see
 //! [`super::cms::near_vertex`]) when asked for.
 
-use super::exact::{orient, orient_filtered};
+use super::exact::{orient, BoxFilter};
 use super::{better, elevation, project, Frame, Options, Progress, Proj, Terrain, EMPTY};
 use crate::cancel::Cancel;
 use crate::error::Result;
@@ -61,11 +67,16 @@ pub fn tangent(h: &[Proj], p: Proj) -> usize {
 /// false, a predicate true then false along the hull, so stepping from `g`
 /// towards the change (by doubling strides, then bisecting the last stride)
 /// finds the same index. Two comparisons when `g` is the answer.
-#[inline(always)]
 pub fn tangent_from(h: &[Proj], p: Proj, g: usize) -> usize {
+    tangent_from_in(h, p, g, BoxFilter::NONE)
+}
+
+/// [`tangent_from`] for points inside the box of `bx`.
+#[inline(always)]
+fn tangent_from_in(h: &[Proj], p: Proj, g: usize, bx: BoxFilter) -> usize {
     let last = h.len() - 1;
     let g = g.min(last);
-    let up = |i: usize| better(p, h[i], h[i + 1]);
+    let up = |i: usize| better_in(bx, p, h[i], h[i + 1]);
     let (mut lo, mut hi); // the answer lies in lo..=hi
     if g < last && up(g) {
         // the answer is above g
@@ -113,11 +124,32 @@ pub fn tangent_from(h: &[Proj], p: Proj, g: usize) -> usize {
     lo
 }
 
+/// [`better`] for points inside the box of `bx` (the same answer).
+#[inline(always)]
+fn better_in(bx: BoxFilter, p: Proj, cur: Proj, cand: Proj) -> bool {
+    let (a, b, c) = ((p.w, p.zz), (cur.w, cur.zz), (cand.w, cand.zz));
+    match bx.sign(a, b, c) {
+        Some(s) => s,
+        None => better_exact(a, b, c),
+    }
+}
+
+/// [`better`] when no filter decides: the exact sign, a tie to the nearer.
+#[cold]
+#[inline(never)]
+fn better_exact(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> bool {
+    match orient(a, b, c) {
+        1 => true,
+        0 => c.0 < b.0,
+        _ => false,
+    }
+}
+
 /// Do a, b, c turn clockwise or lie on a line (orientation ≤ 0)?
 #[inline(always)]
-fn cw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
+fn cw_or_flat(bx: BoxFilter, a: Proj, b: Proj, c: Proj) -> bool {
     let (a, b, c) = ((a.w, a.zz), (b.w, b.zz), (c.w, c.zz));
-    match orient_filtered(a, b, c) {
+    match bx.sign(a, b, c) {
         Some(pos) => !pos,
         None => orient(a, b, c) <= 0,
     }
@@ -125,9 +157,9 @@ fn cw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
 
 /// Do a, b, c turn counter-clockwise or lie on a line (orientation ≥ 0)?
 #[inline(always)]
-fn ccw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
+fn ccw_or_flat(bx: BoxFilter, a: Proj, b: Proj, c: Proj) -> bool {
     let (a, b, c) = ((a.w, a.zz), (b.w, b.zz), (c.w, c.zz));
-    match orient_filtered(a, b, c) {
+    match bx.sign(a, b, c) {
         Some(pos) => pos,
         None => orient(a, b, c) >= 0,
     }
@@ -135,7 +167,7 @@ fn ccw_or_flat(a: Proj, b: Proj, c: Proj) -> bool {
 
 /// Insert `q` into the strictly convex upper hull `h` (sorted by w).
 pub fn insert(h: &mut Vec<Proj>, q: Proj) {
-    insert_ordered::<false>(h, q);
+    insert_ordered::<false>(h, q, BoxFilter::NONE);
 }
 
 /// [`insert`] for a hull sorted by decreasing w (the same hull, reversed:
@@ -146,8 +178,13 @@ pub fn insert(h: &mut Vec<Proj>, q: Proj) {
 /// so it is nowhere lower than its lower end, nor than the chord joining
 /// its ends): then the hull is unchanged, as the general insertion finds
 /// after a search.
-#[inline(always)]
 pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
+    insert_desc_in(h, q, BoxFilter::NONE);
+}
+
+/// [`insert_desc`] for points inside the box of `bx`.
+#[inline(always)]
+fn insert_desc_in(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
     let n = h.len();
     if n == 0 {
         h.push(q);
@@ -157,7 +194,7 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     if q.w < near.w {
         // a new nearest vertex: pop the vertices on or under segment q–h[k−2]
         let mut k = n;
-        while k >= 2 && cw_or_flat(h[k - 2], h[k - 1], q) {
+        while k >= 2 && cw_or_flat(bx, h[k - 2], h[k - 1], q) {
             k -= 1;
         }
         h.truncate(k);
@@ -167,30 +204,30 @@ pub fn insert_desc(h: &mut Vec<Proj>, q: Proj) {
     if q.w > near.w && q.w < far.w {
         // strictly under the hull: under its lower end, or (exactly) under
         // the chord between its end points, which it lies on or above
-        if q.zz < far.zz.min(near.zz) || !ccw_or_flat(near, far, q) {
+        if q.zz < far.zz.min(near.zz) || !ccw_or_flat(bx, near, far, q) {
             return;
         }
     }
-    insert_ordered::<true>(h, q);
+    insert_ordered::<true>(h, q, bx);
 }
 
 /// The general insertion into a hull sorted by increasing w, or by
 /// decreasing w when `DESC` (every orientation then flips sign).
 #[inline]
-fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj) {
+fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
     // orientation ≤ 0 and ≥ 0 in the hull's order (mirrored when DESC)
     let le0 = |a, b, c| {
         if DESC {
-            ccw_or_flat(a, b, c)
+            ccw_or_flat(bx, a, b, c)
         } else {
-            cw_or_flat(a, b, c)
+            cw_or_flat(bx, a, b, c)
         }
     };
     let ge0 = |a, b, c| {
         if DESC {
-            cw_or_flat(a, b, c)
+            cw_or_flat(bx, a, b, c)
         } else {
-            ccw_or_flat(a, b, c)
+            ccw_or_flat(bx, a, b, c)
         }
     };
     let n = h.len();
@@ -326,9 +363,20 @@ pub fn sort_keys_with(
         while end < n && sorted[end] == sorted[start] {
             end += 1;
         }
+        // the keys of a shared bucket are read in an order far from their own
+        for &i in out.iter().skip(start + AHEAD).take(end - start) {
+            prefetch(k1, i as usize);
+        }
         if end - start > 1 {
             let run = &mut out[start..end];
-            run.sort_unstable_by(cmp);
+            // most shared buckets hold two points: one comparison, no sort call
+            if let [x, y] = run {
+                if cmp(y, x).is_lt() {
+                    std::mem::swap(x, y);
+                }
+            } else {
+                run.sort_unstable_by(cmp);
+            }
             if let Some(t) = ties.as_deref_mut() {
                 equal_runs(k1, run, |a, b| {
                     t.push(((start + a) as u32, (start + b) as u32))
@@ -399,6 +447,8 @@ struct Hull {
     wmin: f64,
     wmax: f64,
     zmax: f64,
+    /// The sector's box (every point's w and Z inside it).
+    bx: BoxFilter,
     /// The last tangent index found: consecutive queries of one node come
     /// in a⊥ order and mostly share their answer (about 3 in 4 on a terrain
     /// grid, most others one vertex off), so the next search starts there.
@@ -420,7 +470,7 @@ impl Hull {
         self.wmin = if q.w < self.wmin { q.w } else { self.wmin };
         self.wmax = if q.w > self.wmax { q.w } else { self.wmax };
         self.zmax = if q.zz > self.zmax { q.zz } else { self.zmax };
-        insert_desc(&mut self.h, q);
+        insert_desc_in(&mut self.h, q, self.bx);
     }
 
     /// Can no point of this hull beat `best` (a point of p's sector) seen
@@ -443,7 +493,10 @@ impl Hull {
         };
         self.wmin > p.w
             && best.w > p.w
-            && orient_filtered((p.w, p.zz), (best.w, best.zz), (cw, self.zmax)) == Some(false)
+            && self
+                .bx
+                .sign((p.w, p.zz), (best.w, best.zz), (cw, self.zmax))
+                == Some(false)
     }
 
     /// The best of `r.best` and this hull's tangent point for `r.p`.
@@ -455,8 +508,8 @@ impl Hull {
         if self.cannot_beat(p, r.best) {
             return;
         }
-        self.guess = tangent_from(&self.h, p, self.guess);
-        r.best = pick(p, r.best, self.h[self.guess]);
+        self.guess = tangent_from_in(&self.h, p, self.guess, self.bx);
+        r.best = pick_in(self.bx, p, r.best, self.h[self.guess]);
     }
 }
 
@@ -467,6 +520,7 @@ impl Default for Hull {
             wmin: 0.0,
             wmax: 0.0,
             zmax: 0.0,
+            bx: BoxFilter::NONE,
             guess: 0,
         };
         h.clear();
@@ -514,10 +568,20 @@ fn pick(p: Proj, best: Proj, c: Proj) -> Proj {
     }
 }
 
+/// [`pick`] for points inside the box of `bx`.
+#[inline(always)]
+fn pick_in(bx: BoxFilter, p: Proj, best: Proj, c: Proj) -> Proj {
+    if best.w.is_nan() || better_in(bx, p, best, c) {
+        c
+    } else {
+        best
+    }
+}
+
 /// One block of ranks by the definition: `r` holds the block's points in a⊥
 /// order and `kin` their ranks inside the block; each point against the
 /// block's points already processed with a higher rank.
-fn leaf_block(r: &mut [Rec], kin: &[u8]) {
+fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
     // The block's processed points by rank, so that a candidate is read
     // directly by its rank.
     let mut by_rank = [ABSENT; BLOCK];
@@ -531,7 +595,7 @@ fn leaf_block(r: &mut [Rec], kin: &[u8]) {
         while rest != 0 {
             let step = rest.trailing_zeros() as usize;
             kk += step;
-            best = pick(p, best, by_rank[kk % BLOCK]);
+            best = pick_in(bx, p, best, by_rank[kk % BLOCK]);
             rest >>= step + 1;
             kk += 1;
         }
@@ -744,8 +808,12 @@ pub fn sector_with(
     // Second index: b⊥ ascending, ties a⊥ descending, then input order.
     sort_keys_with(&w.b, &w.a, &mut w.by_b, &mut w.sort, Some(&mut w.ties));
     w.last = Some(this(f.bperp));
-    // a⊥ rank of every point
+    // a⊥ rank of every point (`pa` read and written in an order far from
+    // its own: each entry is fetched ahead, see [`prefetch`])
     for (s, &i) in w.order.iter().enumerate() {
+        if let Some(&j) = w.order.get(s + AHEAD) {
+            prefetch(&w.pa, j as usize);
+        }
         w.pa[i as usize].1 = s as u32;
     }
     // The points by block of leaves (second-index order, written in
@@ -761,12 +829,16 @@ pub fn sector_with(
     w.kin.resize(n, 0);
     w.dst.resize(n, blank);
     let mut keys = [0u64; BLOCK];
-    for ((src, kin), ids) in w
+    for (c, ((src, kin), ids)) in w
         .src
         .chunks_mut(BLOCK)
         .zip(w.kin.chunks_mut(BLOCK))
         .zip(w.by_b.chunks(BLOCK))
+        .enumerate()
     {
+        for &j in w.by_b.iter().skip((c + 2) * BLOCK).take(BLOCK) {
+            prefetch(&w.pa, j as usize);
+        }
         let keys = &mut keys[..ids.len()];
         for (k, (key, &i)) in keys.iter_mut().zip(ids).enumerate() {
             *key = (w.pa[i as usize].1 as u64) << 8 | k as u64;
@@ -789,10 +861,24 @@ pub fn sector_with(
     // live at a time, instead of one walk per point through nodes far
     // apart in memory. The leaf blocks are computed by the first pass just
     // before it merges them, while they are in cache.
+    // One error bound for every orientation test of this sector (see
+    // [`BoxFilter`]): its points' extent in w and Z.
+    let (wr, zr) = w.pa.iter().fold(
+        (
+            (f64::INFINITY, f64::NEG_INFINITY),
+            (f64::INFINITY, f64::NEG_INFINITY),
+        ),
+        |((wl, wh), (zl, zh)), (q, _)| ((wl.min(q.w), wh.max(q.w)), (zl.min(q.zz), zh.max(q.zz))),
+    );
+    let bx = BoxFilter::new(wr, zr);
+    w.hull.bx = bx;
+    for h in &mut w.hulls {
+        h.bx = bx;
+    }
     let levels = (n.div_ceil(BLOCK)).next_power_of_two().trailing_zeros() as usize + 1;
     let share = n / levels;
     if n <= BLOCK {
-        leaf_block(&mut w.src, &w.kin);
+        leaf_block(&mut w.src, &w.kin, bx);
     }
     progress.add(share);
     let mut width = BLOCK;
@@ -804,7 +890,7 @@ pub fn sector_with(
         for ((s, k), d) in chunks.zip(w.dst.chunks_mut(span)) {
             if width == BLOCK {
                 for (c, k) in s.chunks_mut(BLOCK).zip(k.chunks(BLOCK)) {
-                    leaf_block(c, k);
+                    leaf_block(c, k, bx);
                 }
             }
             let s = &*s;
@@ -824,7 +910,10 @@ pub fn sector_with(
     // w.src is now in a⊥ order: w.src[s].a == s.
     let limit = o.max_distance.map(|d| Limit::new(t, f, o, d));
     let dense = n == t.len(); // every point has data: ids[i] == i
-    for (r, &i) in w.src.iter().zip(&w.order) {
+    for (s, (r, &i)) in w.src.iter().zip(&w.order).enumerate() {
+        if let (true, Some(&j)) = (dense, w.order.get(s + AHEAD)) {
+            prefetch(plane, j as usize);
+        }
         let i = if dense { i as usize } else { ids[i as usize] };
         let best = match &limit {
             Some(lim) if !r.best.w.is_nan() && !lim.surely_within(r.p, r.best) => {
@@ -840,6 +929,27 @@ pub fn sector_with(
     progress.add(n - share * (levels));
     w.ids = ids;
     Ok(())
+}
+
+/// How far ahead [`prefetch`] is asked for in a gather by a permutation.
+const AHEAD: usize = 64;
+
+/// Ask for `v[i]`'s cache line ahead of its use (no effect on results; a
+/// no-op off x86-64 or past the end). On a grid, an order by a⊥ or b⊥ key
+/// walks the points along lines across the rows, so consecutive entries of
+/// a gather lie on different pages of a multi-megabyte array: without this
+/// each one waits for its own page walk and cache miss.
+#[inline(always)]
+fn prefetch<T>(v: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(x) = v.get(i) {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch hint reads nothing and cannot fault; SSE is
+        // part of every x86-64 target.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (v, i);
 }
 
 /// `max_distance` for [`sector`]: the winner over the whole sector is also
