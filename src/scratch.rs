@@ -2,8 +2,8 @@
 //!
 //! A fresh heap array of a few megabytes is mapped in 4 KiB pages, each
 //! faulted in and zeroed by the kernel on first touch: several microseconds
-//! a page, which for the tens of megabytes of a 1920×1080 render's
-//! transients adds up to tens of milliseconds. On Linux, large arrays are
+//! a page, which for the 20 MB of a 1920×1080 render's transients adds up
+//! to tens of milliseconds. On Linux, large arrays are
 //! instead their own anonymous mapping, 2 MiB aligned and advised
 //! `MADV_HUGEPAGE`, so that (with transparent huge pages in `madvise` or
 //! `always` mode) a fault maps 2 MiB at once. A dropped mapping is kept for
@@ -63,8 +63,9 @@ unsafe impl<T: Zeroable> Sync for ScratchArray<T> {}
 const MAP_FROM: usize = 1 << 18;
 
 /// Bytes of dropped mappings kept for later arrays (a 1920×1080
-/// perspective render's scratch takes 56 MiB of them).
-pub const KEEP: usize = 64 << 20;
+/// perspective render's scratch, its set flags and depths, takes 20 MiB
+/// of them).
+pub const KEEP: usize = 32 << 20;
 
 impl<T: Zeroable> ScratchArray<T> {
     /// n zeros.
