@@ -128,11 +128,28 @@ pub(crate) fn render_radial(
         depth: depth.as_mut_ptr(),
     };
     let groups = runs.groups(&cands);
+    // One sweep and one set of ray buffers per worker thread, kept from
+    // group to group (rayon's per-task `map_init` would start each task
+    // afresh, regrowing every buffer); a slot found busy (a task nested
+    // in another on the same thread) is replaced by fresh buffers. The
+    // buffers' contents never reach the output.
+    let pool: Vec<std::sync::Mutex<Option<(RadialSweep<'_, '_>, GroupScratch)>>> = (0
+        ..rayon::current_num_threads().max(1))
+        .map(|_| std::sync::Mutex::new(None))
+        .collect();
     let results: Vec<Result<Vec<BinResult>>> = groups
         .par_iter()
-        .map_init(
-            || (RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default()),
-            |(sw, gs), &(g0, g1)| {
+        .map(|&(g0, g1)| {
+            let slot = rayon::current_thread_index().and_then(|t| pool.get(t));
+            let mut guard = slot.and_then(|m| m.try_lock().ok());
+            let mut fresh = None;
+            let (sw, gs) = match guard.as_deref_mut() {
+                Some(held) => held.get_or_insert_with(|| {
+                    (RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default())
+                }),
+                None => fresh.insert((RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default())),
+            };
+            (|| -> Result<Vec<BinResult>> {
                 cancel.check()?;
                 runs.group_rays(g0, g1, gs);
                 let mut res = Vec::new();
@@ -173,8 +190,8 @@ pub(crate) fn render_radial(
                     }
                 }
                 Ok(res)
-            },
-        )
+            })()
+        })
         .collect();
     let results = results.into_iter().collect::<Result<Vec<_>>>()?;
     let mut stats = ColumnStats::default();
@@ -1015,18 +1032,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         sort_rays(&mut self.rays);
         self.done.clear();
         self.done.resize(self.rays.len(), false);
-        self.cov = Default::default();
+        self.cov.clear();
         self.out.clear();
         self.stats = ColumnStats::default();
         self.jobs.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
-        let (scratch, ts) = (
-            std::mem::take(&mut self.ahead.scratch),
-            std::mem::take(&mut self.ahead.ts),
-        );
-        self.ahead = Ahead::default();
-        self.ahead.scratch = scratch;
-        self.ahead.ts = ts;
+        // (A new sweep's look-ahead, its buffers kept.)
+        self.ahead.reset();
         self.cursor = 0;
         self.off = (0.0, 0.0);
         self.fine = None;
