@@ -966,6 +966,9 @@ struct RadialSweep<'c, 'a> {
     eh: DVec2,
     /// The bin's rays, sorted by θ.
     rays: Vec<Ray>,
+    /// Their elevations θ·`ppr` in the units of the samples' `rho` (set by
+    /// [`Self::run`]).
+    rows: Vec<f64>,
     done: Vec<bool>,
     /// Covered θ intervals.
     cov: super::column::Coverage,
@@ -1002,6 +1005,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ctx,
             eh: DVec2::new(phi.cos(), phi.sin()),
             rays: rays.to_vec(),
+            rows: Vec::new(),
             done: vec![false; rays.len()],
             cov: Default::default(),
             out: Vec::with_capacity(rays.len()),
@@ -1320,10 +1324,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if self.rays.is_empty() {
             return;
         }
-        let (th_lo, th_hi) = (
-            self.rays[0].theta * self.ppr,
-            self.rays[self.rays.len() - 1].theta * self.ppr,
-        );
+        let ppr = self.ppr;
+        self.rows.clear();
+        self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
+        let (th_lo, th_hi) = (self.rows[0], self.rows[self.rows.len() - 1]);
         // Domain clip of the half-line E_h + ρ·e_h, ρ ≥ 0.
         let d = ctx.frame.domain;
         let (mut r0, mut r1) = (0.0f64, f64::INFINITY);
@@ -1527,23 +1531,25 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
         // The first ray with θ ≥ lo, walked to from the previous span's
         // (consecutive spans share an end).
-        let ppr = self.ppr;
-        let mut k = self.cursor.min(self.rays.len());
-        while k > 0 && self.rays[k - 1].theta * ppr >= lo {
+        let rows = &self.rows;
+        let mut k = self.cursor.min(rows.len());
+        while k > 0 && rows[k - 1] >= lo {
             k -= 1;
         }
-        while k < self.rays.len() && self.rays[k].theta * ppr < lo {
+        while k < rows.len() && rows[k] < lo {
             k += 1;
         }
         self.cursor = k;
-        let sp = SpanConst::new(self.ctx, a, b, wall);
-        while k < self.rays.len() && self.rays[k].theta * ppr <= hi {
-            let th = self.rays[k].theta * ppr;
+        // Set up on the span's first revealed ray (many spans reveal none).
+        let mut sp = None;
+        while k < self.rows.len() && self.rows[k] <= hi {
+            let th = self.rows[k];
             if !self.done[k] && !self.cov.contains(th) {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
-                let px = self.pixel(a, b, &sp, dir, th, wall);
+                let sp = sp.get_or_insert_with(|| SpanConst::new(self.ctx, a, b, wall));
+                let px = self.pixel(a, b, sp, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }
             k += 1;
