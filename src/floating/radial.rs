@@ -1257,10 +1257,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// The next sample after ρ: at ρ + h, or at any ρ' in [ρ + h/2,
-    /// ρ + h_max] already evaluated ahead (see [`Ahead`]).
-    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64) -> (f64, Option<Sample>) {
-        let done = |s: &Self, (t, r): (f64, Option<Raw>)| (t, r.map(|x| s.finish(x.t, x.uv, x.h)));
+    /// The next sample after ρ (into `out`; its ρ' returned): at ρ + h, or
+    /// at any ρ' in [ρ + h/2, ρ + h_max] already evaluated ahead (see
+    /// [`Ahead`]).
+    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64, out: &mut Option<Sample>) -> f64 {
+        // Written in place: a sample is large.
+        let mut done = |s: &Self, (t, r): (f64, Option<Raw>)| {
+            *out = r.map(|x| s.finish(x.t, x.uv, x.h));
+            t
+        };
         if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
             return done(self, x);
         }
@@ -1350,15 +1355,18 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let fp_at = |s: &Sample| {
             ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / ctx.cam.focal
         };
-        let mut prev = self.sample(r0);
+        // The previous sample and the candidate, in two slots that swap
+        // roles as the sweep moves on (no copy of a sample per step).
+        let mut slots: [Option<Sample>; 2] = [self.sample(r0), None];
+        let mut p = 0;
         let mut rho = r0;
-        if let Some(a) = prev {
+        if let Some(a) = &slots[0] {
             self.cov.add(a.rho, a.rho);
         }
         let mut steps = 0usize;
         while rho < r1 && steps < 4_000_000 {
             steps += 1;
-            let (h_max0, mut hstep) = match &prev {
+            let (h_max0, mut hstep) = match &slots[p] {
                 Some(a) => {
                     let cap = opts.max_step() * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
@@ -1380,9 +1388,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let mut h_max = h_max0;
             let mut halvings = 0;
             loop {
-                let (rn, cand) = self.next(rho, hstep, h_max, r1);
+                let rn = self.next(rho, hstep, h_max, r1, &mut slots[1 - p]);
+                let (prev, cand) = match &mut slots {
+                    [x, y] if p == 0 => (&*x, &*y),
+                    [x, y] => (&*y, &*x),
+                };
                 // By reference: a sample is large, and most steps move none.
-                match (&prev, &cand) {
+                match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
                         let hidden = gap > opts.step() && self.hidden(a, b);
@@ -1408,7 +1420,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     (None, Some(b)) => self.cov.add(b.rho, b.rho),
                     (_, None) => {}
                 }
-                prev = cand;
+                p = 1 - p;
                 rho = rn;
                 break;
             }
