@@ -2,7 +2,8 @@
 //! surface 3 sin(u cos v) over [−5, 5]²:
 //! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
 //! with keys refine, step, max_step, outs (comma-separated buffers) (the options of `fcol.render`),
-//! and hash=1 to print a digest of the buffers (to compare outputs across builds).
+//! hash=1 to print a digest of the buffers (to compare outputs across builds)
+//! and stats=1 to print the render's counters (with evaluations per pixel seen).
 
 use _fcol::camera::Projection;
 use _fcol::floating::{render_floating_column, FloatingOptions};
@@ -21,6 +22,7 @@ fn main() {
     let (w, h, rep) = (num(2, 480), num(3, 477), num(4, 5));
     let mut o = FloatingOptions::default();
     let mut want_hash = false;
+    let mut want_stats = false;
     let mut names = vec![
         "rgb".to_string(),
         "depth".into(),
@@ -35,6 +37,7 @@ fn main() {
             "max_step" => o.max_step = Some(v.parse().unwrap()),
             "outs" => names = v.split(',').map(str::to_string).collect(),
             "hash" => want_hash = v == "1" || v == "true",
+            "stats" => want_stats = v == "1" || v == "true",
             _ => panic!("unknown option {k}"),
         }
     }
@@ -63,6 +66,7 @@ fn main() {
     let mut times = Vec::new();
     let mut samples = 0;
     let mut hash = 0;
+    let mut last = None;
     for _ in 0..rep {
         let t0 = Instant::now();
         let b = render_floating_column(&f, &view, w, h, &outs, &sh, &o, &Cancel::new()).unwrap();
@@ -71,6 +75,7 @@ fn main() {
         if want_hash {
             hash = digest(&b);
         }
+        last = Some(b);
     }
     times.sort_by(f64::total_cmp);
     println!(
@@ -83,6 +88,17 @@ fn main() {
             String::new()
         }
     );
+    if let (true, Some(b)) = (want_stats, &last) {
+        let seen = b.mask.iter().flatten().filter(|&&m| m).count();
+        let mut line = format!("  pixels seen {seen}");
+        for (k, v) in &b.stats {
+            line += &format!(", {k} {v}");
+            if k == "refine_evals" && seen > 0 {
+                line += &format!(" ({:.3} per pixel seen)", v / seen as f64);
+            }
+        }
+        println!("{line}");
+    }
 }
 
 /// FNV-1a of the bytes of every buffer (to compare outputs across builds).

@@ -82,6 +82,10 @@ pub(super) struct Coverage {
 }
 
 impl Coverage {
+    /// Nothing covered (the buffer kept).
+    pub(super) fn clear(&mut self) {
+        self.iv.clear();
+    }
     #[inline]
     pub(super) fn contains(&self, x: f64) -> bool {
         self.iv.iter().any(|&(a, b)| x >= a && x <= b)

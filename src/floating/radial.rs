@@ -128,11 +128,28 @@ pub(crate) fn render_radial(
         depth: depth.as_mut_ptr(),
     };
     let groups = runs.groups(&cands);
+    // One sweep and one set of ray buffers per worker thread, kept from
+    // group to group (rayon's per-task `map_init` would start each task
+    // afresh, regrowing every buffer); a slot found busy (a task nested
+    // in another on the same thread) is replaced by fresh buffers. The
+    // buffers' contents never reach the output.
+    let pool: Vec<std::sync::Mutex<Option<(RadialSweep<'_, '_>, GroupScratch)>>> = (0
+        ..rayon::current_num_threads().max(1))
+        .map(|_| std::sync::Mutex::new(None))
+        .collect();
     let results: Vec<Result<Vec<BinResult>>> = groups
         .par_iter()
-        .map_init(
-            || (RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default()),
-            |(sw, gs), &(g0, g1)| {
+        .map(|&(g0, g1)| {
+            let slot = rayon::current_thread_index().and_then(|t| pool.get(t));
+            let mut guard = slot.and_then(|m| m.try_lock().ok());
+            let mut fresh = None;
+            let (sw, gs) = match guard.as_deref_mut() {
+                Some(held) => held.get_or_insert_with(|| {
+                    (RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default())
+                }),
+                None => fresh.insert((RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default())),
+            };
+            (|| -> Result<Vec<BinResult>> {
                 cancel.check()?;
                 runs.group_rays(g0, g1, gs);
                 let mut res = Vec::new();
@@ -173,8 +190,8 @@ pub(crate) fn render_radial(
                     }
                 }
                 Ok(res)
-            },
-        )
+            })()
+        })
         .collect();
     let results = results.into_iter().collect::<Result<Vec<_>>>()?;
     let mut stats = ColumnStats::default();
@@ -949,6 +966,9 @@ struct RadialSweep<'c, 'a> {
     eh: DVec2,
     /// The bin's rays, sorted by θ.
     rays: Vec<Ray>,
+    /// Their elevations θ·`ppr` in the units of the samples' `rho` (set by
+    /// [`Self::run`]).
+    rows: Vec<f64>,
     done: Vec<bool>,
     /// Covered θ intervals.
     cov: super::column::Coverage,
@@ -985,6 +1005,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ctx,
             eh: DVec2::new(phi.cos(), phi.sin()),
             rays: rays.to_vec(),
+            rows: Vec::new(),
             done: vec![false; rays.len()],
             cov: Default::default(),
             out: Vec::with_capacity(rays.len()),
@@ -1015,18 +1036,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         sort_rays(&mut self.rays);
         self.done.clear();
         self.done.resize(self.rays.len(), false);
-        self.cov = Default::default();
+        self.cov.clear();
         self.out.clear();
         self.stats = ColumnStats::default();
         self.jobs.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
-        let (scratch, ts) = (
-            std::mem::take(&mut self.ahead.scratch),
-            std::mem::take(&mut self.ahead.ts),
-        );
-        self.ahead = Ahead::default();
-        self.ahead.scratch = scratch;
-        self.ahead.ts = ts;
+        // (A new sweep's look-ahead, its buffers kept.)
+        self.ahead.reset();
         self.cursor = 0;
         self.off = (0.0, 0.0);
         self.fine = None;
@@ -1241,10 +1257,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// The next sample after ρ: at ρ + h, or at any ρ' in [ρ + h/2,
-    /// ρ + h_max] already evaluated ahead (see [`Ahead`]).
-    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64) -> (f64, Option<Sample>) {
-        let done = |s: &Self, (t, r): (f64, Option<Raw>)| (t, r.map(|x| s.finish(x.t, x.uv, x.h)));
+    /// The next sample after ρ (into `out`; its ρ' returned): at ρ + h, or
+    /// at any ρ' in [ρ + h/2, ρ + h_max] already evaluated ahead (see
+    /// [`Ahead`]).
+    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64, out: &mut Option<Sample>) -> f64 {
+        // Written in place: a sample is large.
+        let mut done = |s: &Self, (t, r): (f64, Option<Raw>)| {
+            *out = r.map(|x| s.finish(x.t, x.uv, x.h));
+            t
+        };
         if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
             return done(self, x);
         }
@@ -1308,10 +1329,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if self.rays.is_empty() {
             return;
         }
-        let (th_lo, th_hi) = (
-            self.rays[0].theta * self.ppr,
-            self.rays[self.rays.len() - 1].theta * self.ppr,
-        );
+        let ppr = self.ppr;
+        self.rows.clear();
+        self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
+        let (th_lo, th_hi) = (self.rows[0], self.rows[self.rows.len() - 1]);
         // Domain clip of the half-line E_h + ρ·e_h, ρ ≥ 0.
         let d = ctx.frame.domain;
         let (mut r0, mut r1) = (0.0f64, f64::INFINITY);
@@ -1334,15 +1355,18 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let fp_at = |s: &Sample| {
             ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / ctx.cam.focal
         };
-        let mut prev = self.sample(r0);
+        // The previous sample and the candidate, in two slots that swap
+        // roles as the sweep moves on (no copy of a sample per step).
+        let mut slots: [Option<Sample>; 2] = [self.sample(r0), None];
+        let mut p = 0;
         let mut rho = r0;
-        if let Some(a) = prev {
+        if let Some(a) = &slots[0] {
             self.cov.add(a.rho, a.rho);
         }
         let mut steps = 0usize;
         while rho < r1 && steps < 4_000_000 {
             steps += 1;
-            let (h_max0, mut hstep) = match &prev {
+            let (h_max0, mut hstep) = match &slots[p] {
                 Some(a) => {
                     let cap = opts.max_step() * fp_at(a).max(1e-12 * scale);
                     let r = a.drho_dt.abs();
@@ -1364,9 +1388,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let mut h_max = h_max0;
             let mut halvings = 0;
             loop {
-                let (rn, cand) = self.next(rho, hstep, h_max, r1);
+                let rn = self.next(rho, hstep, h_max, r1, &mut slots[1 - p]);
+                let (prev, cand) = match &mut slots {
+                    [x, y] if p == 0 => (&*x, &*y),
+                    [x, y] => (&*y, &*x),
+                };
                 // By reference: a sample is large, and most steps move none.
-                match (&prev, &cand) {
+                match (prev, cand) {
                     (Some(a), Some(b)) => {
                         let gap = (b.rho - a.rho).abs();
                         let hidden = gap > opts.step() && self.hidden(a, b);
@@ -1392,7 +1420,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     (None, Some(b)) => self.cov.add(b.rho, b.rho),
                     (_, None) => {}
                 }
-                prev = cand;
+                p = 1 - p;
                 rho = rn;
                 break;
             }
@@ -1515,23 +1543,25 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
         // The first ray with θ ≥ lo, walked to from the previous span's
         // (consecutive spans share an end).
-        let ppr = self.ppr;
-        let mut k = self.cursor.min(self.rays.len());
-        while k > 0 && self.rays[k - 1].theta * ppr >= lo {
+        let rows = &self.rows;
+        let mut k = self.cursor.min(rows.len());
+        while k > 0 && rows[k - 1] >= lo {
             k -= 1;
         }
-        while k < self.rays.len() && self.rays[k].theta * ppr < lo {
+        while k < rows.len() && rows[k] < lo {
             k += 1;
         }
         self.cursor = k;
-        let sp = SpanConst::new(self.ctx, a, b, wall);
-        while k < self.rays.len() && self.rays[k].theta * ppr <= hi {
-            let th = self.rays[k].theta * ppr;
+        // Set up on the span's first revealed ray (many spans reveal none).
+        let mut sp = None;
+        while k < self.rows.len() && self.rows[k] <= hi {
+            let th = self.rows[k];
             if !self.done[k] && !self.cov.contains(th) {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
-                let px = self.pixel(a, b, &sp, dir, th, wall);
+                let sp = sp.get_or_insert_with(|| SpanConst::new(self.ctx, a, b, wall));
+                let px = self.pixel(a, b, sp, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }
             k += 1;
