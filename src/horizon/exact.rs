@@ -86,7 +86,9 @@ impl BoxFilter {
     /// [`orient_filtered`] for three points of the box.
     #[inline(always)]
     pub fn sign(self, a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bool> {
-        let det = (a.0 - c.0) * (b.1 - c.1) - (a.1 - c.1) * (b.0 - c.0);
+        // (the determinant of `det_bound`, whose per-triple bound this one
+        // exceeds; that bound, unused, is not computed)
+        let det = det_bound(a, b, c).0;
         if det > self.bound {
             Some(true)
         } else if det < -self.bound {

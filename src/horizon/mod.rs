@@ -312,10 +312,11 @@ pub fn better(p: Proj, cur: Proj, cand: Proj) -> bool {
     }
 }
 
-/// [`better`] when the orientation filter cannot decide.
+/// [`better`] when the orientation filters cannot decide: the exact sign,
+/// a tie to the nearer point.
 #[cold]
 #[inline(never)]
-fn better_near(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> bool {
+pub(super) fn better_near(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> bool {
     match exact::orient(a, b, c) {
         1 => true,
         0 => c.0 < b.0,

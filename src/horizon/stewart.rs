@@ -40,7 +40,9 @@
 //! [`super::cms::near_vertex`]) when asked for.
 
 use super::exact::{orient, BoxFilter};
-use super::{better, elevation, project, Frame, Options, Progress, Proj, Terrain, EMPTY};
+use super::{
+    better, better_near, elevation, project, Frame, Options, Progress, Proj, Terrain, EMPTY,
+};
 use crate::cancel::Cancel;
 use crate::error::Result;
 
@@ -130,18 +132,7 @@ fn better_in(bx: BoxFilter, p: Proj, cur: Proj, cand: Proj) -> bool {
     let (a, b, c) = ((p.w, p.zz), (cur.w, cur.zz), (cand.w, cand.zz));
     match bx.sign(a, b, c) {
         Some(s) => s,
-        None => better_exact(a, b, c),
-    }
-}
-
-/// [`better`] when no filter decides: the exact sign, a tie to the nearer.
-#[cold]
-#[inline(never)]
-fn better_exact(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> bool {
-    match orient(a, b, c) {
-        1 => true,
-        0 => c.0 < b.0,
-        _ => false,
+        None => better_near(a, b, c),
     }
 }
 
@@ -509,7 +500,7 @@ impl Hull {
             return;
         }
         self.guess = tangent_from_in(&self.h, p, self.guess, self.bx);
-        r.best = pick_in(self.bx, p, r.best, self.h[self.guess]);
+        r.best = pick(self.bx, p, r.best, self.h[self.guess]);
     }
 }
 
@@ -558,19 +549,9 @@ pub struct Work {
 }
 
 /// The best of `best` (`ABSENT`: none) and `c` for `p` (exact; ties to the
-/// nearer point).
-#[inline]
-fn pick(p: Proj, best: Proj, c: Proj) -> Proj {
-    if best.w.is_nan() || better(p, best, c) {
-        c
-    } else {
-        best
-    }
-}
-
-/// [`pick`] for points inside the box of `bx`.
+/// nearer point), for points inside the box of `bx`.
 #[inline(always)]
-fn pick_in(bx: BoxFilter, p: Proj, best: Proj, c: Proj) -> Proj {
+fn pick(bx: BoxFilter, p: Proj, best: Proj, c: Proj) -> Proj {
     if best.w.is_nan() || better_in(bx, p, best, c) {
         c
     } else {
@@ -595,7 +576,7 @@ fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
         while rest != 0 {
             let step = rest.trailing_zeros() as usize;
             kk += step;
-            best = pick_in(bx, p, best, by_rank[kk % BLOCK]);
+            best = pick(bx, p, best, by_rank[kk % BLOCK]);
             rest >>= step + 1;
             kk += 1;
         }
@@ -1078,7 +1059,12 @@ impl<'a> Limit<'a> {
             if !(qa <= ka && qb >= kb) || (qa == ka && qb == kb) {
                 return;
             }
-            best = pick(p, best, project(f, t.x[q], t.y[q], t.z[q], self.c));
+            best = pick(
+                BoxFilter::NONE,
+                p,
+                best,
+                project(f, t.x[q], t.y[q], t.z[q], self.c),
+            );
         };
         match (t.grid, &self.cells) {
             (Some((rows, cols, du, dv)), _) => {
