@@ -21,12 +21,9 @@ use std::ops::{Deref, DerefMut};
 /// # Safety
 /// The all-zero bit pattern must be a valid value of the type.
 pub unsafe trait Zeroable: Copy + Send + Sync {}
-// SAFETY: integers, floats and bool are valid all-zero.
-unsafe impl Zeroable for u8 {}
+// SAFETY: integers, floats and bool are valid all-zero. (The types the
+// renderers and tests use.)
 unsafe impl Zeroable for u32 {}
-unsafe impl Zeroable for u64 {}
-unsafe impl Zeroable for usize {}
-unsafe impl Zeroable for f32 {}
 unsafe impl Zeroable for f64 {}
 unsafe impl Zeroable for bool {}
 
@@ -36,11 +33,7 @@ unsafe impl Zeroable for bool {}
 /// Every bit pattern of the type's size must be a valid value.
 pub unsafe trait AnyBits: Zeroable {}
 // SAFETY: every bit pattern is an integer or a float (possibly NaN).
-unsafe impl AnyBits for u8 {}
 unsafe impl AnyBits for u32 {}
-unsafe impl AnyBits for u64 {}
-unsafe impl AnyBits for usize {}
-unsafe impl AnyBits for f32 {}
 unsafe impl AnyBits for f64 {}
 
 /// An array of n values (see the module documentation).
@@ -247,7 +240,7 @@ impl Mapping {
 /// page as they are first written: for a fresh output array about to be
 /// written whole. No value changes (a page reads as before); where the call
 /// is not supported, or for a small array, nothing happens.
-pub fn populate_write<T: Zeroable>(buf: &mut [T]) {
+pub fn populate_write<T>(buf: &mut [T]) {
     #[cfg(target_os = "linux")]
     {
         const PAGE: usize = 4096;

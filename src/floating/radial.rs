@@ -1389,10 +1389,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let mut halvings = 0;
             loop {
                 let rn = self.next(rho, hstep, h_max, r1, &mut slots[1 - p]);
-                let (prev, cand) = match &mut slots {
-                    [x, y] if p == 0 => (&*x, &*y),
-                    [x, y] => (&*y, &*x),
-                };
+                let (prev, cand) = (&slots[p], &slots[1 - p]);
                 // By reference: a sample is large, and most steps move none.
                 match (prev, cand) {
                     (Some(a), Some(b)) => {
