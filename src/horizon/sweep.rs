@@ -341,17 +341,18 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     // once (each lane streams through its own row), along the columns a
     // block of 256 lines 4 steps at a time (the block's cells at one step
     // are a run of one row: every cache line of the grid used up at once,
-    // and few pages at a time). The stacks of group g: lane i's vertices
-    // as (distance, height) pairs at st[(8g + 2i)·cap ..].
+    // and few pages at a time). The stacks of group g: lane i's vertex j
+    // as a (distance, height) pair at st[(8g + 2i)·cap + 2(j + 3)], below
+    // them three pairs of NaN that are never written: a NaN vertex fails
+    // every pop test, so a lane with fewer than two vertices needs no test
+    // of its length, and the vertex below q (j = k − 4) is read unclamped.
     let (ng, chunk) = if ADJ {
         (LANE_GROUPS, CHUNK_ROWS)
     } else {
         (1, steps.len())
     };
-    let cap = steps.len() + 3;
-    let mut st = vec![0.0f64; 8 * ng * cap];
-    let one = _mm256_set1_epi64x(1);
-    let three = _mm256_set1_epi64x(3);
+    let cap = steps.len() + 6;
+    let mut st = vec![f64::NAN; 8 * ng * cap];
     let np = _mm256_set1_epi64x(nperp);
     let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
     let inf = _mm256_set1_pd(f64::INFINITY);
@@ -361,14 +362,18 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     let lane = _mm256_set_epi64x(3, 2, 1, 0);
     let svi = sv as i64;
     let bw = _mm256_set_epi64x(6 * cap as i64, 4 * cap as i64, 2 * cap as i64, 0);
-    let eight = _mm256_set1_epi64x(8);
+    // pair k + 3 (the push) and pair k − 1 (the vertex below q) of each lane
+    let bw_push = _mm256_add_epi64(bw, _mm256_set1_epi64x(6));
+    let bw_below = _mm256_sub_epi64(bw, _mm256_set1_epi64x(2));
+    let nan = _mm256_set1_pd(f64::NAN);
     // the shifts are monotone along the walk
     let rising = steps.first().map(|s| s.sh) <= steps.last().map(|s| s.sh);
     // per group of the block: its state (stack length, top t, the vertex
-    // p below it and the vertex q below p) and its range of steps
+    // p below it and the vertex q below p, NaN where the stack has none)
+    // and its range of steps
     let zi = _mm256_setzero_si256();
     let zd = _mm256_setzero_pd();
-    let mut state = vec![(zi, zd, zd, zd, zd, zd, zd); ng];
+    let mut state = vec![(zi, nan, nan, nan, nan, nan, nan); ng];
     let mut range = vec![(0usize, 0usize); ng];
     let mut full = vec![(0usize, 0usize); ng];
     let mut l0 = -smax;
@@ -399,7 +404,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
             // and where all are: −l ≤ sh < nperp − l − 3
             range[gi] = between(-l - 3, nperp - l);
             full[gi] = between(-l, nperp - l - 3);
-            state[gi] = (zi, zd, zd, zd, zd, zd, zd);
+            state[gi] = (zi, nan, nan, nan, nan, nan, nan);
         }
         let mut c0 = 0;
         while c0 < steps.len() {
@@ -470,6 +475,9 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                                 continue;
                             }
                         }
+                        // a lane without a cell here gets height NaN: it fails
+                        // every pop test
+                        let h = _mm256_blendv_pd(nan, h, fin);
                         let (w, zz) = if CURV {
                             let w = _mm256_add_pd(_mm256_set1_pd(s.w), wl);
                             // Z = z − c·w²
@@ -480,24 +488,22 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                         // pop each lane's top while it is on or under the segment from
                         // the new point to the vertex p below it (t, p and q in
                         // registers; the vertex below q is read for the lanes that
-                        // pop, off the chain of comparisons)
+                        // pop, off the chain of comparisons). A lane with fewer than
+                        // two vertices has p = NaN, one without a cell zz = NaN: the
+                        // ordered comparison is false for both.
                         loop {
-                            let can =
-                                _mm256_and_pd(fin, _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, one)));
                             let lhs = _mm256_mul_pd(_mm256_sub_pd(pz, zz), _mm256_sub_pd(tw, w));
                             let rhs = _mm256_mul_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(pw, w));
-                            let pop = _mm256_and_pd(can, _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs));
-                            if _mm256_movemask_pd(pop) == 0 {
+                            let mut pop = _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs);
+                            // an opaque mask: used as it is by the blends and the
+                            // length update (not rebuilt from a vector of booleans)
+                            std::arch::asm!("/* {0} */", inout(ymm_reg) pop, options(pure, nomem, nostack));
+                            if _mm256_testz_pd(pop, pop) != 0 {
                                 break;
                             }
-                            // the vertex below q: pair k − 4 (a lane with fewer than
-                            // four vertices reads its first one)
-                            let kk = _mm256_add_epi64(bw, _mm256_add_epi64(k, k));
-                            let ip = _mm256_blendv_epi8(
-                                bw,
-                                _mm256_sub_epi64(kk, eight),
-                                _mm256_cmpgt_epi64(k, three),
-                            );
+                            // the vertex below q: vertex k − 4, pair k − 1 (a NaN
+                            // sentinel when the lane has fewer than four)
+                            let ip = _mm256_add_epi64(bw_below, _mm256_add_epi64(k, k));
                             let (rw, rz) = load_pairs(sp, ip);
                             tw = _mm256_blendv_pd(tw, pw, pop);
                             tz = _mm256_blendv_pd(tz, pz, pop);
@@ -513,12 +519,14 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                         } else {
                             slope
                         };
-                        let has =
-                            _mm256_castsi256_pd(_mm256_cmpgt_epi64(k, _mm256_setzero_si256()));
-                        let val = _mm256_cvtpd_ps(_mm256_blendv_pd(ninf, slope, has));
+                        // −∞ where the stack is empty: the slope is then NaN (t is
+                        // NaN) and only there (a cell's height and its stack's are
+                        // finite, their distances distinct), and maxpd returns its
+                        // second operand when the first is NaN
+                        let val = _mm256_cvtpd_ps(_mm256_max_pd(slope, ninf));
                         // push on every lane (above the top of a lane without a cell
                         // here, the value is never read)
-                        store_pairs(sp, _mm256_add_epi64(bw, _mm256_add_epi64(k, k)), w, zz);
+                        store_pairs(sp, _mm256_add_epi64(bw_push, _mm256_add_epi64(k, k)), w, zz);
                         let mut va = [0f32; 4];
                         _mm_storeu_ps(va.as_mut_ptr(), val);
                         if ADJ && mfin == 15 {
