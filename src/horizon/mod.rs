@@ -108,6 +108,15 @@ pub struct Terrain {
     /// (rows, cols, du, dv) when the points are the grid z[i, j] at (j·du, i·dv),
     /// stored row-major.
     pub grid: Option<(usize, usize, f64, f64)>,
+    /// Whether every height is finite (no point without data), as the
+    /// constructors found it.
+    pub finite: bool,
+}
+
+/// Whether every value is finite (a pass that vectorises: no early exit).
+fn all_finite(z: &[f64]) -> bool {
+    z.chunks(4096)
+        .all(|c| c.iter().fold(true, |a, v| a & v.is_finite()))
 }
 
 impl Terrain {
@@ -139,10 +148,11 @@ impl Terrain {
         Ok(Terrain {
             x,
             y,
-            z,
             kx,
             ky,
             grid: Some((rows, cols, du, dv)),
+            finite: all_finite(&z),
+            z,
         })
     }
 
@@ -158,8 +168,9 @@ impl Terrain {
             ky: y.clone(),
             x,
             y,
-            z,
             grid: None,
+            finite: all_finite(&z),
+            z,
         })
     }
 

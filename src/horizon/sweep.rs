@@ -331,6 +331,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     sv: usize,
     c: f64,
     wperp: f64,
+    finite: bool,
     cancel: &Cancel,
 ) -> Result<()> {
     use std::arch::x86_64::*;
@@ -428,9 +429,10 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 // each lane's stack length, top t, p below it and q below p
                 let (mut k, mut tw, mut tz, mut pw, mut pz, mut qw, mut qz) = state[gi];
                 // One step of the group's four lines; `$full`: every lane's
-                // cell is on the grid.
+                // cell is on the grid; `$finite`: and every height is known
+                // to be finite.
                 macro_rules! step {
-                    ($s:expr, $full:literal) => {{
+                    ($s:expr, $full:literal, $finite:literal) => {{
                         let s: &Step = $s;
                         // the cells of lanes 0..4 at this step: base + i·sv
                         let base = s.q0 + ob;
@@ -461,9 +463,13 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                             let qa: [i64; 4] = std::mem::transmute(q);
                             (_mm256_movemask_pd(inr), inr, h, qa)
                         };
-                        let fin = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(h, abs_mask), inf);
+                        let fin = if $finite {
+                            _mm256_castsi256_pd(_mm256_set1_epi64x(-1))
+                        } else {
+                            _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(h, abs_mask), inf)
+                        };
                         let fin = if $full { fin } else { _mm256_and_pd(inr, fin) };
-                        let mfin = _mm256_movemask_pd(fin);
+                        let mfin = if $finite { 15 } else { _mm256_movemask_pd(fin) };
                         if mfin != minr {
                             // ±inf or NaN: no data
                             for (i, &qi) in qa.iter().enumerate() {
@@ -555,13 +561,19 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 let a = full[gi].0.clamp(s0, s1);
                 let b = full[gi].1.clamp(a, s1);
                 for s in steps.get_unchecked(s0..a) {
-                    step!(s, false);
+                    step!(s, false, false);
                 }
-                for s in steps.get_unchecked(a..b) {
-                    step!(s, true);
+                if finite {
+                    for s in steps.get_unchecked(a..b) {
+                        step!(s, true, true);
+                    }
+                } else {
+                    for s in steps.get_unchecked(a..b) {
+                        step!(s, true, false);
+                    }
                 }
                 for s in steps.get_unchecked(b..s1) {
-                    step!(s, false);
+                    step!(s, false, false);
                 }
                 state[gi] = (k, tw, tz, pw, pz, qw, qz);
             }
@@ -594,6 +606,7 @@ fn lines_blocked(
     wstep: f64,
     wperp: f64,
     c: f64,
+    finite: bool,
     out: &mut [f32],
     cancel: &Cancel,
     simd: bool,
@@ -644,18 +657,18 @@ fn lines_blocked(
         // SAFETY: AVX2 checked above; the steps and cells as in `walk`.
         return unsafe {
             match (c == 0.0, along_cols) {
-                (true, true) => {
-                    lines_avx2::<false, false>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
-                }
-                (true, false) => {
-                    lines_avx2::<false, true>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
-                }
-                (false, true) => {
-                    lines_avx2::<true, false>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
-                }
-                (false, false) => {
-                    lines_avx2::<true, true>(z, out, &steps, sm, nperp, sv, c, wperp, cancel)
-                }
+                (true, true) => lines_avx2::<false, false>(
+                    z, out, &steps, sm, nperp, sv, c, wperp, finite, cancel,
+                ),
+                (true, false) => lines_avx2::<false, true>(
+                    z, out, &steps, sm, nperp, sv, c, wperp, finite, cancel,
+                ),
+                (false, true) => lines_avx2::<true, false>(
+                    z, out, &steps, sm, nperp, sv, c, wperp, finite, cancel,
+                ),
+                (false, false) => lines_avx2::<true, true>(
+                    z, out, &steps, sm, nperp, sv, c, wperp, finite, cancel,
+                ),
             }
         };
     }
@@ -827,6 +840,7 @@ pub(crate) fn sector_with(
                 wc,
                 wr,
                 o.curvature,
+                t.finite,
                 plane,
                 cancel,
                 simd,
@@ -842,6 +856,7 @@ pub(crate) fn sector_with(
                 wr,
                 wc,
                 o.curvature,
+                t.finite,
                 plane,
                 cancel,
                 simd,
