@@ -363,18 +363,20 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     let lane = _mm256_set_epi64x(3, 2, 1, 0);
     let svi = sv as i64;
     let bw = _mm256_set_epi64x(6 * cap as i64, 4 * cap as i64, 2 * cap as i64, 0);
-    // pair k + 3 (the push) and pair k − 1 (the vertex below q) of each lane
-    let bw_push = _mm256_add_epi64(bw, _mm256_set1_epi64x(6));
-    let bw_below = _mm256_sub_epi64(bw, _mm256_set1_epi64x(2));
+    // A lane's stack length k is kept as the offset of its pair k − 1 (the
+    // vertex below q), kb = bw + 2(k − 1); the push goes to pair k + 3.
+    let kb0 = _mm256_sub_epi64(bw, _mm256_set1_epi64x(2));
+    let eight = _mm256_set1_epi64x(8);
+    let two = _mm256_set1_epi64x(2);
     let nan = _mm256_set1_pd(f64::NAN);
     // the shifts are monotone along the walk
     let rising = steps.first().map(|s| s.sh) <= steps.last().map(|s| s.sh);
-    // per group of the block: its state (stack length, top t, the vertex
+    // per group of the block: its state (stack length as kb, top t, the vertex
     // p below it and the vertex q below p, NaN where the stack has none)
     // and its range of steps
     let zi = _mm256_setzero_si256();
     let zd = _mm256_setzero_pd();
-    let mut state = vec![(zi, nan, nan, nan, nan, nan, nan); ng];
+    let mut state = vec![(kb0, nan, nan, nan, nan, nan, nan); ng];
     let mut range = vec![(0usize, 0usize); ng];
     let mut full = vec![(0usize, 0usize); ng];
     let mut l0 = -smax;
@@ -405,7 +407,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
             // and where all are: −l ≤ sh < nperp − l − 3
             range[gi] = between(-l - 3, nperp - l);
             full[gi] = between(-l, nperp - l - 3);
-            state[gi] = (zi, nan, nan, nan, nan, nan, nan);
+            state[gi] = (kb0, nan, nan, nan, nan, nan, nan);
         }
         let mut c0 = 0;
         while c0 < steps.len() {
@@ -426,8 +428,8 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 } else {
                     _mm256_setzero_pd()
                 };
-                // each lane's stack length, top t, p below it and q below p
-                let (mut k, mut tw, mut tz, mut pw, mut pz, mut qw, mut qz) = state[gi];
+                // each lane's stack length (as kb), top t, p below it and q below p
+                let (mut kb, mut tw, mut tz, mut pw, mut pz, mut qw, mut qz) = state[gi];
                 // One step of the group's four lines; `$full`: every lane's
                 // cell is on the grid; `$finite`: and every height is known
                 // to be finite.
@@ -509,15 +511,15 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                             }
                             // the vertex below q: vertex k − 4, pair k − 1 (a NaN
                             // sentinel when the lane has fewer than four)
-                            let ip = _mm256_add_epi64(bw_below, _mm256_add_epi64(k, k));
-                            let (rw, rz) = load_pairs(sp, ip);
+                            let (rw, rz) = load_pairs(sp, kb);
                             tw = _mm256_blendv_pd(tw, pw, pop);
                             tz = _mm256_blendv_pd(tz, pz, pop);
                             pw = _mm256_blendv_pd(pw, qw, pop);
                             pz = _mm256_blendv_pd(pz, qz, pop);
                             qw = _mm256_blendv_pd(qw, rw, pop);
                             qz = _mm256_blendv_pd(qz, rz, pop);
-                            k = _mm256_add_epi64(k, _mm256_castpd_si256(pop));
+                            let pop = _mm256_castpd_si256(pop);
+                            kb = _mm256_add_epi64(kb, _mm256_add_epi64(pop, pop));
                         }
                         let slope = _mm256_div_pd(_mm256_sub_pd(tz, zz), _mm256_sub_pd(tw, w));
                         let slope = if CURV {
@@ -532,7 +534,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                         let val = _mm256_cvtpd_ps(_mm256_max_pd(slope, ninf));
                         // push on every lane (above the top of a lane without a cell
                         // here, the value is never read)
-                        store_pairs(sp, _mm256_add_epi64(bw_push, _mm256_add_epi64(k, k)), w, zz);
+                        store_pairs(sp, _mm256_add_epi64(kb, eight), w, zz);
                         let mut va = [0f32; 4];
                         _mm_storeu_ps(va.as_mut_ptr(), val);
                         if ADJ && mfin == 15 {
@@ -548,7 +550,12 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                                 }
                             }
                         }
-                        k = _mm256_sub_epi64(k, _mm256_castpd_si256(fin));
+                        kb = if $finite {
+                            _mm256_add_epi64(kb, two)
+                        } else {
+                            let fin = _mm256_castpd_si256(fin);
+                            _mm256_sub_epi64(kb, _mm256_add_epi64(fin, fin))
+                        };
                         qw = _mm256_blendv_pd(qw, pw, fin);
                         qz = _mm256_blendv_pd(qz, pz, fin);
                         pw = _mm256_blendv_pd(pw, tw, fin);
@@ -575,7 +582,7 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 for s in steps.get_unchecked(b..s1) {
                     step!(s, false, false);
                 }
-                state[gi] = (k, tw, tz, pw, pz, qw, qz);
+                state[gi] = (kb, tw, tz, pw, pz, qw, qz);
             }
             c0 = c1;
         }
