@@ -817,7 +817,18 @@ struct RunState {
 /// screen on which θ is monotone: nearly sorted or nearly reversed, each ray a few places from its own, so that
 /// an insertion sort after an optional reversal takes a few moves per ray.
 fn sort_rays(rays: &mut [Ray]) {
-    let before = |x: &Ray, y: &Ray| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt();
+    // The order of `total_cmp` then the pixel index; two numbers that
+    // differ compare as numbers under both (one comparison in the common
+    // case).
+    let before = |x: &Ray, y: &Ray| {
+        if x.theta < y.theta {
+            true
+        } else if x.theta > y.theta {
+            false
+        } else {
+            x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt()
+        }
+    };
     let n = rays.len();
     if n < 2 {
         return;
