@@ -732,6 +732,7 @@ struct EvalScratch {
 /// evaluated so far take it (see [`RadialSweep::drive`]), then the samples
 /// that all of them ask for next are evaluated in one batch. A sweep's
 /// samples, and all it does with them, are those of a sweep run alone.
+#[inline(never)]
 fn sweep_together(
     ctx: &Ctx<'_>,
     sweeps: &mut [(RadialSweep<'_, '_>, RunState)],
@@ -1583,6 +1584,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// along the ray for those Newton could not settle (the pixel's ray is
     /// up to half a pixel off the bin's plane, so its seed can be poor at
     /// grazing).
+    #[inline(never)]
     fn solve(&mut self) {
         if self.jobs.is_empty() {
             return;
