@@ -618,6 +618,7 @@ impl<'b> Runs<'b> {
     /// between the group's outer edges (one run, see [`Runs`]) take their
     /// bins from [`Bins::near`], walked along the row, as a whole-image
     /// binning would give them.
+    #[inline(never)]
     fn group_rays(&self, g0: usize, g1: usize, gs: &mut GroupScratch) {
         let (w, h) = (self.w, self.h);
         let nl = g1 - g0;
@@ -945,23 +946,23 @@ impl Bins {
             return self.of(x, y);
         }
         let ccw = |e: DVec2| e.x * y - e.y * x >= 0.0;
-        let mut b = b0;
-        // Edges 0 and n are the same direction (φ = ±π): a walk across it
-        // starts afresh.
-        for _ in 0..4 {
-            if !ccw(self.edge[b]) {
-                if b == 0 {
-                    break;
+        // Walked one way only (a step up leaves the direction
+        // counter-clockwise of the new bin's lower edge, a step down
+        // clockwise of its upper edge), each edge tested once, up to four
+        // bins. Edges 0 and n are the same direction (φ = ±π): a walk
+        // across it starts afresh.
+        if ccw(self.edge[b0]) {
+            for b in b0..(b0 + 4).min(n) {
+                if !ccw(self.edge[b + 1]) {
+                    // Between edges b and b + 1 (each within π of the other).
+                    return b;
                 }
-                b -= 1;
-            } else if ccw(self.edge[b + 1]) {
-                if b + 1 == n {
-                    break;
+            }
+        } else {
+            for b in (b0.saturating_sub(3)..b0).rev() {
+                if ccw(self.edge[b]) {
+                    return b;
                 }
-                b += 1;
-            } else {
-                // Between edges b and b + 1 (each within π of the other).
-                return b;
             }
         }
         self.of(x, y)
