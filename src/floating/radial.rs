@@ -21,7 +21,8 @@
 //! solved on its own ray. A bin is the wedge of the screen between two lines
 //! through that vanishing point, one run of pixels per row: each task takes
 //! a few neighbouring bins, generates their rays row by row from those runs
-//! and sweeps them (no binning of the whole image, no scatter of its pixels).
+//! and sweeps them (no binning of the whole image, no scatter of its pixels),
+//! a few bins side by side so that their samples are evaluated in one batch.
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
@@ -1096,7 +1097,7 @@ struct RadialSweep<'c, 'a> {
     /// The bin's rays, sorted by θ.
     rays: Vec<Ray>,
     /// Their elevations θ·`ppr` in the units of the samples' `rho` (set by
-    /// [`Self::run`]).
+    /// [`Self::begin`]).
     rows: Vec<f64>,
     done: Vec<bool>,
     /// Covered θ intervals.
@@ -1798,7 +1799,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         px
     }
 
-    /// Fallback of [`Self::newton`]: march the pixel's ray over [lo, hi]
+    /// Fallback of the batched Newton ([`Self::solve`]): march the pixel's ray over [lo, hi]
     /// in half-footprint steps and solve the first crossing by bisection.
     /// The march starts where the ray is on the seen side (`side`) of the
     /// surface, stepping back if needed.
