@@ -21,7 +21,8 @@
 //! solved on its own ray. A bin is the wedge of the screen between two lines
 //! through that vanishing point, one run of pixels per row: each task takes
 //! a few neighbouring bins, generates their rays row by row from those runs
-//! and sweeps them (no binning of the whole image, no scatter of its pixels).
+//! and sweeps them (no binning of the whole image, no scatter of its pixels),
+//! a few bins side by side so that their samples are evaluated in one batch.
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
@@ -128,13 +129,13 @@ pub(crate) fn render_radial(
         depth: depth.as_mut_ptr(),
     };
     let groups = runs.groups(&cands);
-    // One sweep and one set of ray buffers per worker thread, kept from
-    // group to group (rayon's per-task `map_init` would start each task
-    // afresh, regrowing every buffer); a slot found busy (a task nested
-    // in another on the same thread) is replaced by fresh buffers. The
-    // buffers' contents never reach the output.
-    let pool: Vec<std::sync::Mutex<Option<(RadialSweep<'_, '_>, GroupScratch)>>> = (0
-        ..rayon::current_num_threads().max(1))
+    // The sweeps and ray buffers of each worker thread, kept from group to
+    // group (rayon's per-task `map_init` would start each task afresh,
+    // regrowing every buffer); a slot found busy (a task nested in another
+    // on the same thread) is replaced by fresh buffers. The buffers'
+    // contents never reach the output.
+    let pool: Vec<std::sync::Mutex<Option<Lockstep<'_, '_>>>> = (0..rayon::current_num_threads()
+        .max(1))
         .map(|_| std::sync::Mutex::new(None))
         .collect();
     let results: Vec<Result<Vec<BinResult>>> = groups
@@ -143,52 +144,63 @@ pub(crate) fn render_radial(
             let slot = rayon::current_thread_index().and_then(|t| pool.get(t));
             let mut guard = slot.and_then(|m| m.try_lock().ok());
             let mut fresh = None;
-            let (sw, gs) = match guard.as_deref_mut() {
-                Some(held) => held.get_or_insert_with(|| {
-                    (RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default())
-                }),
-                None => fresh.insert((RadialSweep::new(ctx, 0.0, &[]), GroupScratch::default())),
+            let ls = match guard.as_deref_mut() {
+                Some(held) => held.get_or_insert_with(Lockstep::default),
+                None => fresh.insert(Lockstep::default()),
             };
             (|| -> Result<Vec<BinResult>> {
                 cancel.check()?;
-                runs.group_rays(g0, g1, gs);
+                runs.group_rays(g0, g1, &mut ls.gs);
                 let mut res = Vec::new();
-                for b in g0..g1 {
-                    let rays = std::mem::take(&mut gs.lists[b - g0]);
-                    if rays.is_empty() {
-                        gs.lists[b - g0] = rays;
-                        continue;
-                    }
+                let mut todo = std::mem::take(&mut ls.todo);
+                todo.clear();
+                todo.extend((g0..g1).filter(|&b| !ls.gs.lists[b - g0].is_empty()));
+                // A few bins at a time, swept side by side: their samples
+                // are evaluated together, in batches large enough to
+                // amortise a batch's cost (the samples are the same as
+                // one bin at a time, bit for bit).
+                for chunk in todo.chunks(LOCKSTEP) {
                     cancel.check()?;
-                    let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
-                    // The sweep's previous rays become the list's buffer.
-                    gs.lists[b - g0] = sw.reset(phi, rays);
-                    sw.off = off;
-                    let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
-                    sw.ppr = bin_ppr(cam, phi, th0, th1);
-                    if ctx.opts.coverage {
-                        sw.start_coverage();
+                    while ls.sweeps.len() < chunk.len() {
+                        ls.sweeps
+                            .push((RadialSweep::new(ctx, 0.0, &[]), RunState::default()));
                     }
-                    sw.run();
-                    sw.solve();
-                    sw.finish_coverage();
-                    let stats = std::mem::take(&mut sw.stats);
-                    if let Some(out) = direct {
-                        for (k, p) in &sw.out {
-                            // SAFETY: the bins partition the pixels and a bin
-                            // lists each of its pixels once, so no other thread
-                            // touches pixel k. Without coverage a bin lists set
-                            // pixels only.
-                            unsafe {
-                                out.put_set(*k, p);
-                                marks.put(*k, p);
-                            }
+                    let sweeps = &mut ls.sweeps[..chunk.len()];
+                    for (&b, (sw, _)) in chunk.iter().zip(sweeps.iter_mut()) {
+                        let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
+                        let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                        // The sweep's previous rays become the list's buffer.
+                        ls.gs.lists[b - g0] = sw.reset(phi, rays);
+                        sw.off = off;
+                        let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
+                        sw.ppr = bin_ppr(cam, phi, th0, th1);
+                        if ctx.opts.coverage {
+                            sw.start_coverage();
                         }
-                        res.push((Vec::new(), stats));
-                    } else {
-                        res.push((std::mem::take(&mut sw.out), stats));
+                    }
+                    sweep_together(ctx, sweeps, &mut ls.eval);
+                    for (sw, _) in sweeps.iter_mut() {
+                        sw.solve();
+                        sw.finish_coverage();
+                        let stats = std::mem::take(&mut sw.stats);
+                        if let Some(out) = direct {
+                            for (k, p) in &sw.out {
+                                // SAFETY: the bins partition the pixels and a bin
+                                // lists each of its pixels once, so no other thread
+                                // touches pixel k. Without coverage a bin lists set
+                                // pixels only.
+                                unsafe {
+                                    out.put_set(*k, p);
+                                    marks.put(*k, p);
+                                }
+                            }
+                            res.push((Vec::new(), stats));
+                        } else {
+                            res.push((std::mem::take(&mut sw.out), stats));
+                        }
                     }
                 }
+                ls.todo = todo;
                 Ok(res)
             })()
         })
@@ -607,6 +619,7 @@ impl<'b> Runs<'b> {
     /// between the group's outer edges (one run, see [`Runs`]) take their
     /// bins from [`Bins::near`], walked along the row, as a whole-image
     /// binning would give them.
+    #[inline(never)]
     fn group_rays(&self, g0: usize, g1: usize, gs: &mut GroupScratch) {
         let (w, h) = (self.w, self.h);
         let nl = g1 - g0;
@@ -695,13 +708,130 @@ struct GroupScratch {
     th: Vec<f64>,
 }
 
+/// Bins swept side by side (see [`sweep_together`]).
+const LOCKSTEP: usize = 8;
+
+/// A worker thread's buffers: its group's rays, its sweeps (each with the
+/// state of its run) and the batched evaluation's buffers.
+#[derive(Default)]
+struct Lockstep<'c, 'a> {
+    gs: GroupScratch,
+    sweeps: Vec<(RadialSweep<'c, 'a>, RunState)>,
+    todo: Vec<usize>,
+    eval: EvalScratch,
+}
+
+/// Buffers of [`sweep_together`].
+#[derive(Default)]
+struct EvalScratch {
+    sc: Scratch,
+    batch: Vec<Option<Raw>>,
+    need: Vec<usize>,
+    next: Vec<usize>,
+}
+
+/// Run the sweeps side by side: each goes on as far as its samples
+/// evaluated so far take it (see [`RadialSweep::drive`]), then the samples
+/// that all of them ask for next are evaluated in one batch. A sweep's
+/// samples, and all it does with them, are those of a sweep run alone.
+#[inline(never)]
+fn sweep_together(
+    ctx: &Ctx<'_>,
+    sweeps: &mut [(RadialSweep<'_, '_>, RunState)],
+    es: &mut EvalScratch,
+) {
+    let e = ctx.cam.eye;
+    let d = ctx.frame.domain;
+    let EvalScratch {
+        sc,
+        batch,
+        need,
+        next,
+    } = es;
+    need.clear();
+    for (m, (sw, st)) in sweeps.iter_mut().enumerate() {
+        if sw.begin(st) {
+            need.push(m);
+        }
+    }
+    while !need.is_empty() {
+        sc.clear();
+        for &m in need.iter() {
+            let sw = &sweeps[m].0;
+            for &rho in &sw.ahead.ts {
+                let uv = DVec2::new(e.x, e.y) + rho * sw.eh;
+                sc.u.push(uv.x.clamp(d.u0, d.u1));
+                sc.v.push(uv.y.clamp(d.v0, d.v1));
+            }
+        }
+        sc.hs.resize(sc.u.len(), HeightSample::default());
+        ctx.field.eval_batch(&sc.u, &sc.v, &mut sc.hs);
+        next.clear();
+        let mut at = 0;
+        for &m in need.iter() {
+            let (sw, st) = &mut sweeps[m];
+            let n = sw.ahead.ts.len();
+            batch.clear();
+            for (k, &rho) in sw.ahead.ts.iter().enumerate() {
+                let hs = sc.hs[at + k];
+                batch.push(hs.is_finite().then_some(Raw {
+                    t: rho,
+                    s: 0.0,
+                    uv: DVec2::new(sc.u[at + k], sc.v[at + k]),
+                    h: hs,
+                }));
+            }
+            at += n;
+            sw.stats.sweep_evals += n as u64;
+            if sw.deliver(st, batch) {
+                next.push(m);
+            }
+        }
+        std::mem::swap(need, next);
+    }
+}
+
+/// Where a bin's sweep stands between two batches of samples (see
+/// [`RadialSweep::drive`]).
+#[derive(Default)]
+struct RunState {
+    /// The previous sample and the candidate, in two slots that swap roles
+    /// as the sweep moves on (no copy of a sample per step): the previous
+    /// one in `slots[p]`.
+    slots: [Option<Sample>; 2],
+    p: usize,
+    rho: f64,
+    r1: f64,
+    scale: f64,
+    steps: usize,
+    hstep: f64,
+    h_max: f64,
+    halvings: u32,
+    /// Elevation range of the bin's rays (units of `rho`).
+    th_lo: f64,
+    th_hi: f64,
+    /// Waiting for the sample at the start of the sweep.
+    first: bool,
+}
+
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
 /// order is too). A bin's pixels come row by row (see
 /// [`Runs::group_rays`]), a run of one or a few per row, along a line of the
 /// screen on which θ is monotone: nearly sorted or nearly reversed, each ray a few places from its own, so that
 /// an insertion sort after an optional reversal takes a few moves per ray.
 fn sort_rays(rays: &mut [Ray]) {
-    let before = |x: &Ray, y: &Ray| x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt();
+    // The order of `total_cmp` then the pixel index; two numbers that
+    // differ compare as numbers under both (one comparison in the common
+    // case).
+    let before = |x: &Ray, y: &Ray| {
+        if x.theta < y.theta {
+            true
+        } else if x.theta > y.theta {
+            false
+        } else {
+            x.theta.total_cmp(&y.theta).then(x.k.cmp(&y.k)).is_lt()
+        }
+    };
     let n = rays.len();
     if n < 2 {
         return;
@@ -817,23 +947,23 @@ impl Bins {
             return self.of(x, y);
         }
         let ccw = |e: DVec2| e.x * y - e.y * x >= 0.0;
-        let mut b = b0;
-        // Edges 0 and n are the same direction (φ = ±π): a walk across it
-        // starts afresh.
-        for _ in 0..4 {
-            if !ccw(self.edge[b]) {
-                if b == 0 {
-                    break;
+        // Walked one way only (a step up leaves the direction
+        // counter-clockwise of the new bin's lower edge, a step down
+        // clockwise of its upper edge), each edge tested once, up to four
+        // bins. Edges 0 and n are the same direction (φ = ±π): a walk
+        // across it starts afresh.
+        if ccw(self.edge[b0]) {
+            for b in b0..(b0 + 4).min(n) {
+                if !ccw(self.edge[b + 1]) {
+                    // Between edges b and b + 1 (each within π of the other).
+                    return b;
                 }
-                b -= 1;
-            } else if ccw(self.edge[b + 1]) {
-                if b + 1 == n {
-                    break;
+            }
+        } else {
+            for b in (b0.saturating_sub(3)..b0).rev() {
+                if ccw(self.edge[b]) {
+                    return b;
                 }
-                b += 1;
-            } else {
-                // Between edges b and b + 1 (each within π of the other).
-                return b;
             }
         }
         self.of(x, y)
@@ -967,7 +1097,7 @@ struct RadialSweep<'c, 'a> {
     /// The bin's rays, sorted by θ.
     rays: Vec<Ray>,
     /// Their elevations θ·`ppr` in the units of the samples' `rho` (set by
-    /// [`Self::run`]).
+    /// [`Self::begin`]).
     rows: Vec<f64>,
     done: Vec<bool>,
     /// Covered θ intervals.
@@ -982,7 +1112,6 @@ struct RadialSweep<'c, 'a> {
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
     ahead: Ahead,
-    batch: Vec<Option<Raw>>,
     /// Where the last span's rays started (in `rays`).
     cursor: usize,
     /// Row and column offsets of the rays (see [`render_radial`]).
@@ -1015,7 +1144,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             failed: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
             ahead: Ahead::default(),
-            batch: Vec::new(),
             cursor: 0,
             off: (0.0, 0.0),
             fine: None,
@@ -1230,58 +1358,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         Some(self.finish(rho, uv, hs))
     }
 
-    /// Samples at every ρ of `rhos`, in one batched evaluation (the same
-    /// samples as [`Self::sample`] one by one).
-    fn sample_many(&mut self, rhos: &[f64], out: &mut Vec<Option<Raw>>, sc: &mut Scratch) {
-        let ctx = self.ctx;
-        let e = ctx.cam.eye;
-        let d = ctx.frame.domain;
-        sc.clear();
-        for &rho in rhos {
-            let uv = DVec2::new(e.x, e.y) + rho * self.eh;
-            sc.u.push(uv.x.clamp(d.u0, d.u1));
-            sc.v.push(uv.y.clamp(d.v0, d.v1));
-        }
-        sc.hs.resize(rhos.len(), HeightSample::default());
-        ctx.field.eval_batch(&sc.u, &sc.v, &mut sc.hs);
-        self.stats.sweep_evals += rhos.len() as u64;
-        out.clear();
-        for (k, &rho) in rhos.iter().enumerate() {
-            let hs = sc.hs[k];
-            out.push(hs.is_finite().then_some(Raw {
-                t: rho,
-                s: 0.0,
-                uv: DVec2::new(sc.u[k], sc.v[k]),
-                h: hs,
-            }));
-        }
-    }
-
-    /// The next sample after ρ (into `out`; its ρ' returned): at ρ + h, or
-    /// at any ρ' in [ρ + h/2, ρ + h_max] already evaluated ahead (see
-    /// [`Ahead`]).
-    fn next(&mut self, rho: f64, h: f64, h_max: f64, r1: f64, out: &mut Option<Sample>) -> f64 {
-        // Written in place: a sample is large.
-        let mut done = |s: &Self, (t, r): (f64, Option<Raw>)| {
-            *out = r.map(|x| s.finish(x.t, x.uv, x.h));
-            t
-        };
-        if let Some(x) = self.ahead.take(rho + 0.5 * h, (rho + h_max).min(r1)) {
-            return done(self, x);
-        }
-        let mut rhos = std::mem::take(&mut self.ahead.ts);
-        rhos.clear();
-        rhos.extend_from_slice(self.ahead.plan(rho, h, r1, 0.0));
-        let mut batch = std::mem::take(&mut self.batch);
-        let mut sc = std::mem::take(&mut self.ahead.scratch);
-        self.sample_many(&rhos, &mut batch, &mut sc);
-        self.ahead.scratch = sc;
-        self.ahead.ts = rhos;
-        let first = self.ahead.fill(&mut batch);
-        self.batch = batch;
-        done(self, first)
-    }
-
     fn finish(&self, rho: f64, uv: DVec2, hs: HeightSample) -> Sample {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
@@ -1322,24 +1398,26 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    fn run(&mut self) {
+    /// Start the bin's sweep (its rays set by [`Self::reset`]): true when
+    /// it asks for its first sample, at ρ = `self.ahead.ts`; false when
+    /// there is nothing to sweep.
+    fn begin(&mut self, st: &mut RunState) -> bool {
         let ctx = self.ctx;
-        let opts = ctx.opts;
         let e = ctx.cam.eye;
         if self.rays.is_empty() {
-            return;
+            return false;
         }
         let ppr = self.ppr;
         self.rows.clear();
         self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
-        let (th_lo, th_hi) = (self.rows[0], self.rows[self.rows.len() - 1]);
+        (st.th_lo, st.th_hi) = (self.rows[0], self.rows[self.rows.len() - 1]);
         // Domain clip of the half-line E_h + ρ·e_h, ρ ≥ 0.
         let d = ctx.frame.domain;
         let (mut r0, mut r1) = (0.0f64, f64::INFINITY);
         for (oc, dc, a, b) in [(e.x, self.eh.x, d.u0, d.u1), (e.y, self.eh.y, d.v0, d.v1)] {
             if dc.abs() < 1e-15 {
                 if oc < a || oc > b {
-                    return;
+                    return false;
                 }
             } else {
                 let (p, q) = ((a - oc) / dc, (b - oc) / dc);
@@ -1348,88 +1426,157 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
         }
         if r0 >= r1 || r0.is_nan() || r1.is_nan() {
-            return;
+            return false;
         }
-        let scale = (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
-        let r0 = r0.max(1e-9 * scale);
-        let fp_at = |s: &Sample| {
-            ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / ctx.cam.focal
-        };
-        // The previous sample and the candidate, in two slots that swap
-        // roles as the sweep moves on (no copy of a sample per step).
-        let mut slots: [Option<Sample>; 2] = [self.sample(r0), None];
-        let mut p = 0;
-        let mut rho = r0;
-        if let Some(a) = &slots[0] {
-            self.cov.add(a.rho, a.rho);
+        st.scale = (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
+        let r0 = r0.max(1e-9 * st.scale);
+        st.slots = [None, None];
+        st.p = 0;
+        st.rho = r0;
+        st.r1 = r1;
+        st.steps = 0;
+        st.first = true;
+        self.ahead.ts.clear();
+        self.ahead.ts.push(r0);
+        true
+    }
+
+    /// Take the samples asked for (at `self.ahead.ts`) and sweep on (see
+    /// [`Self::drive`]).
+    fn deliver(&mut self, st: &mut RunState, batch: &mut Vec<Option<Raw>>) -> bool {
+        if st.first {
+            st.first = false;
+            st.slots[0] = batch[0].map(|x| self.finish(x.t, x.uv, x.h));
+            if let Some(a) = &st.slots[0] {
+                self.cov.add(a.rho, a.rho);
+            }
+            return self.drive(st, None);
         }
-        let mut steps = 0usize;
-        while rho < r1 && steps < 4_000_000 {
-            steps += 1;
-            let (h_max0, mut hstep) = match &slots[p] {
-                Some(a) => {
-                    let cap = opts.max_step() * fp_at(a).max(1e-12 * scale);
-                    let r = a.drho_dt.abs();
-                    let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
-                    if !deep && r > 0.0 && r.is_finite() {
-                        (
-                            (opts.step() / r).min(cap),
-                            (super::column::AIM * opts.step() / r).min(cap),
-                        )
-                    } else {
-                        (cap, cap)
-                    }
-                }
-                None => {
-                    let cap = opts.max_step() * (rho.max(1e-9 * scale)) / ctx.cam.focal;
+        let (t, r) = self.ahead.fill(batch);
+        st.slots[1 - st.p] = r.map(|x| self.finish(x.t, x.uv, x.h));
+        self.drive(st, Some(t))
+    }
+
+    /// The next step of the sweep from ρ = `st.rho` (false: the sweep is
+    /// over): its step bounds from the previous sample.
+    fn step_start(&mut self, st: &mut RunState) -> bool {
+        let ctx = self.ctx;
+        let opts = ctx.opts;
+        if !(st.rho < st.r1 && st.steps < 4_000_000) {
+            return false;
+        }
+        st.steps += 1;
+        let scale = st.scale;
+        let (h_max0, hstep) = match &st.slots[st.p] {
+            Some(a) => {
+                let cap = opts.max_step() * self.fp_at(a).max(1e-12 * scale);
+                let r = a.drho_dt.abs();
+                let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
+                if !deep && r > 0.0 && r.is_finite() {
+                    (
+                        (opts.step() / r).min(cap),
+                        (super::column::AIM * opts.step() / r).min(cap),
+                    )
+                } else {
                     (cap, cap)
                 }
-            };
-            let mut h_max = h_max0;
-            let mut halvings = 0;
-            loop {
-                let rn = self.next(rho, hstep, h_max, r1, &mut slots[1 - p]);
-                let (prev, cand) = (&slots[p], &slots[1 - p]);
-                // By reference: a sample is large, and most steps move none.
-                match (prev, cand) {
-                    (Some(a), Some(b)) => {
-                        let gap = (b.rho - a.rho).abs();
-                        let hidden = gap > opts.step() && self.hidden(a, b);
-                        if gap > opts.step()
-                            && !hidden
-                            && halvings < 40
-                            && (rn - rho) > 1e-9 * fp_at(a)
-                        {
-                            hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
-                            h_max = hstep;
-                            halvings += 1;
-                            continue;
+            }
+            None => {
+                let cap = opts.max_step() * (st.rho.max(1e-9 * scale)) / ctx.cam.focal;
+                (cap, cap)
+            }
+        };
+        st.h_max = h_max0;
+        st.hstep = hstep;
+        st.halvings = 0;
+        true
+    }
+
+    /// World size of a pixel at sample `s`.
+    #[inline]
+    fn fp_at(&self, s: &Sample) -> f64 {
+        let e = self.ctx.cam.eye;
+        ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / self.ctx.cam.focal
+    }
+
+    /// The §4.2 sweep of the bin, front to back, from where it stands:
+    /// `got` is the sweep parameter of the candidate just delivered into
+    /// `st.slots` (None: at the start of a step). Goes on while the
+    /// samples evaluated ahead last; returns true when it needs a new
+    /// batch (its parameters planned into `self.ahead.ts`), false when the
+    /// sweep is over.
+    fn drive(&mut self, st: &mut RunState, mut got: Option<f64>) -> bool {
+        let ctx = self.ctx;
+        let opts = ctx.opts;
+        if got.is_none() && !self.step_start(st) {
+            return false;
+        }
+        loop {
+            // The candidate after ρ: at ρ + h, or at any ρ' in [ρ + h/2,
+            // ρ + h_max] already evaluated ahead (see [`Ahead`]).
+            let rn = match got.take() {
+                Some(t) => t,
+                None => {
+                    let (lo, hi) = (st.rho + 0.5 * st.hstep, (st.rho + st.h_max).min(st.r1));
+                    match self.ahead.take(lo, hi) {
+                        Some((t, r)) => {
+                            // Written in place: a sample is large.
+                            st.slots[1 - st.p] = r.map(|x| self.finish(x.t, x.uv, x.h));
+                            t
                         }
-                        let wall = gap > opts.step() && !hidden;
-                        if wall {
-                            self.stats.walls += 1;
-                        }
-                        match if wall { None } else { self.correct(a, b) } {
-                            Some(from) => self.span(&from, b, wall),
-                            None => self.span(a, b, wall),
+                        None => {
+                            let mut rhos = std::mem::take(&mut self.ahead.ts);
+                            rhos.clear();
+                            rhos.extend_from_slice(self.ahead.plan(st.rho, st.hstep, st.r1, 0.0));
+                            self.ahead.ts = rhos;
+                            return true;
                         }
                     }
-                    (None, Some(b)) => self.cov.add(b.rho, b.rho),
-                    (_, None) => {}
                 }
-                p = 1 - p;
-                rho = rn;
-                break;
+            };
+            let rho = st.rho;
+            let (prev, cand) = (&st.slots[st.p], &st.slots[1 - st.p]);
+            // By reference: a sample is large, and most steps move none.
+            match (prev, cand) {
+                (Some(a), Some(b)) => {
+                    let gap = (b.rho - a.rho).abs();
+                    let hidden = gap > opts.step() && self.hidden(a, b);
+                    if gap > opts.step()
+                        && !hidden
+                        && st.halvings < 40
+                        && (rn - rho) > 1e-9 * self.fp_at(a)
+                    {
+                        st.hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
+                        st.h_max = st.hstep;
+                        st.halvings += 1;
+                        continue;
+                    }
+                    let wall = gap > opts.step() && !hidden;
+                    if wall {
+                        self.stats.walls += 1;
+                    }
+                    match if wall { None } else { self.correct(a, b) } {
+                        Some(from) => self.span(&from, b, wall),
+                        None => self.span(a, b, wall),
+                    }
+                }
+                (None, Some(b)) => self.cov.add(b.rho, b.rho),
+                (_, None) => {}
             }
+            st.p = 1 - st.p;
+            st.rho = rn;
             // Early exit (§4.2): every ray of the bin is covered (with
             // coverage, every ray's whole extent).
             let fine_done = match &self.fine {
-                Some(f) => f.covers(th_lo - self.half, th_hi + self.half),
+                Some(f) => f.covers(st.th_lo - self.half, st.th_hi + self.half),
                 None => true,
             };
-            if self.cov.covers(th_lo, th_hi) && fine_done {
+            if self.cov.covers(st.th_lo, st.th_hi) && fine_done {
                 self.stats.early_exit += 1;
-                break;
+                return false;
+            }
+            if !self.step_start(st) {
+                return false;
             }
         }
     }
@@ -1439,6 +1586,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// along the ray for those Newton could not settle (the pixel's ray is
     /// up to half a pixel off the bin's plane, so its seed can be poor at
     /// grazing).
+    #[inline(never)]
     fn solve(&mut self) {
         if self.jobs.is_empty() {
             return;
@@ -1651,7 +1799,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         px
     }
 
-    /// Fallback of [`Self::newton`]: march the pixel's ray over [lo, hi]
+    /// Fallback of the batched Newton ([`Self::solve`]): march the pixel's ray over [lo, hi]
     /// in half-footprint steps and solve the first crossing by bisection.
     /// The march starts where the ray is on the seen side (`side`) of the
     /// surface, stepping back if needed.
