@@ -177,7 +177,7 @@ pub struct ColumnScratch {
     jobs: Vec<super::refine::Job>,
     seeds: Vec<super::refine::SeedJob>,
     spans: Vec<super::refine::SpanSeed>,
-    ortho: super::refine::NewtonScratch,
+    ortho: OrthoScratch,
     ahead: Box<Ahead>,
     batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,
@@ -281,7 +281,7 @@ pub(crate) unsafe fn render_column_direct(
     sc.batch = std::mem::take(&mut sw.batch);
     if !sw.seeds.is_empty() {
         let (failed, evals) =
-            super::refine::solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, direct, &mut sc.ortho);
+            solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, direct, &mut sc.ortho);
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed;
     }
@@ -315,6 +315,183 @@ pub(crate) unsafe fn render_column_direct(
     sc.seeds = std::mem::take(&mut sw.seeds);
     sc.spans = std::mem::take(&mut sw.spans);
     sw.stats
+}
+
+/// Buffers of [`solve_ortho`], reused from column to column.
+#[derive(Debug, Default)]
+pub(super) struct OrthoScratch {
+    /// Per job: its ray origin and current depth.
+    orig: Vec<DVec3>,
+    lam: Vec<f64>,
+    /// Jobs still moving, and the next round's.
+    active: Vec<u32>,
+    next: Vec<u32>,
+    /// Per evaluated job of a round: the job, its point and its value.
+    live: Vec<u32>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    pz: Vec<f64>,
+    hs: Vec<crate::surface::HeightSample>,
+    failed: Vec<u32>,
+}
+
+/// The exact solve of the pixels of orthographic column `col` seeded by
+/// their spans: the batched Newton of [`super::refine::newton`] on the
+/// camera's rays (the same steps, bit for bit), with the ray origins
+/// computed once from the rows and each pixel written once, when its solve
+/// ends (an exact hit, or its span's interpolation should the solve fail):
+/// into `out`, or with `direct`, straight into the render's buffers.
+/// Returns the number of failures and of evaluations.
+fn solve_ortho(
+    ctx: &Ctx<'_>,
+    col: f64,
+    jobs: &[super::refine::SeedJob],
+    spans: &[super::refine::SpanSeed],
+    out: &mut [Pixel],
+    direct: Option<&Direct<'_, '_>>,
+    sc: &mut OrthoScratch,
+) -> (u64, u64) {
+    let cam = ctx.cam;
+    let d = cam.d;
+    let dom = ctx.frame.domain;
+    let normal = ctx.opts.shading == ShadingMode::Normal;
+    // A job is done when its step is under `refine_tol` pixels.
+    let tol = ctx.opts.refine_tol * ctx.frame.pixel;
+    // The ray origin of row i: what `Camera::ray` gives, the column's part
+    // hoisted.
+    let (xs, _) = cam.pixel_to_screen(0.0, col);
+    let base = cam.eye + (xs * cam.pixel) * cam.r;
+    let OrthoScratch {
+        orig,
+        lam,
+        active,
+        next,
+        live,
+        u,
+        v,
+        pz,
+        hs,
+        failed,
+    } = sc;
+    let n = jobs.len();
+    orig.clear();
+    lam.clear();
+    orig.extend(jobs.iter().map(|j| {
+        let (_, ys) = cam.pixel_to_screen(j.slot as f64, col);
+        base + (ys * cam.pixel) * cam.up
+    }));
+    lam.extend(jobs.iter().map(|j| j.lam));
+    active.clear();
+    active.extend(0..n as u32);
+    failed.clear();
+    let mut evals = 0u64;
+    for _ in 0..ctx.opts.refine_iters {
+        if active.is_empty() {
+            break;
+        }
+        u.clear();
+        v.clear();
+        pz.clear();
+        live.clear();
+        for &k in active.iter() {
+            let p = orig[k as usize] + lam[k as usize] * d;
+            if dom.contains(p.x, p.y) {
+                u.push(p.x);
+                v.push(p.y);
+                pz.push(p.z);
+                live.push(k);
+            } else {
+                failed.push(k);
+            }
+        }
+        // Grown only: a height field's batch writes every element.
+        if hs.len() < live.len() {
+            hs.resize(live.len(), Default::default());
+        }
+        let hs = &mut hs[..live.len()];
+        ctx.field.eval_batch(u, v, hs);
+        evals += live.len() as u64;
+        next.clear();
+        for ((&k, h), &pz) in live.iter().zip(hs.iter()).zip(pz.iter()) {
+            let ku = k as usize;
+            if !h.is_finite() {
+                failed.push(k);
+                continue;
+            }
+            let g = pz - h.f;
+            let gp = d.z - (h.fu * d.x + h.fv * d.y);
+            if gp == 0.0 || !gp.is_finite() {
+                failed.push(k);
+                continue;
+            }
+            let j = &jobs[ku];
+            let s = &spans[j.span as usize];
+            let dl = g / gp;
+            let l = lam[ku] - dl;
+            if !(l >= s.lo && l <= s.hi) {
+                failed.push(k);
+                continue;
+            }
+            lam[ku] = l;
+            if dl.abs() > tol {
+                next.push(k);
+                continue;
+            }
+            let q = orig[ku] + l * d;
+            if !dom.contains(q.x, q.y) {
+                failed.push(k);
+                continue;
+            }
+            let nrm = h.normal();
+            let c = -d.dot(nrm);
+            let side = if c > 0.0 {
+                1
+            } else if c < 0.0 {
+                -1
+            } else {
+                s.topo
+            };
+            let inten = if normal {
+                ctx.shading.intensity(nrm, -d)
+            } else {
+                s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
+            };
+            let px = Pixel {
+                set: true,
+                side,
+                depth: l,
+                n: nrm,
+                uv: DVec2::new(q.x, q.y),
+                inten,
+                cover: 1.0,
+            };
+            put_solved(out, direct, j.slot, &px);
+        }
+        std::mem::swap(active, next);
+    }
+    failed.extend_from_slice(active);
+    // The failed pixels keep their span's interpolation.
+    for &k in failed.iter() {
+        let j = &jobs[k as usize];
+        let mut px = spans[j.span as usize].pixel(j.tau, j.lam);
+        if normal {
+            px.inten = ctx.shading.intensity(px.n, -d);
+        }
+        put_solved(out, direct, j.slot, &px);
+    }
+    (failed.len() as u64, evals)
+}
+
+/// Write a finished pixel of row `slot` of an orthographic column: into
+/// `out`, or with `direct`, straight into the render's buffers.
+#[inline(always)]
+fn put_solved(out: &mut [Pixel], direct: Option<&Direct<'_, '_>>, slot: u32, px: &Pixel) {
+    match direct {
+        // SAFETY: the caller of `render_column_direct` guarantees that no
+        // other thread touches column `j`'s pixels.
+        Some(dst) => unsafe { dst.out.put_set(slot as usize * dst.width + dst.j, px) },
+        None => out[slot as usize] = *px,
+    }
 }
 
 /// Range of the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1
@@ -805,7 +982,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
                 // The common orthographic case, every pixel queued for its
                 // exact solve and written once when it ends
-                // ([`super::refine::solve_ortho`]): its seed depth and its
+                // ([`solve_ortho`]): its seed depth and its
                 // weight in the span, the span's values kept once. With
                 // coverage the interpolated pixel is also put in the column
                 // at once, for the §6.4 edge pass of the spans to come.
