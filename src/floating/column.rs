@@ -230,7 +230,7 @@ pub(crate) unsafe fn render_column_direct(
 
 /// Columns rendered together (orthographic views without supersampling or
 /// coverage): their sweeps' look-ahead batches are evaluated as one.
-pub(crate) const GROUP: usize = 8;
+pub(crate) const GROUP: usize = 16;
 
 /// Several orthographic columns `cols` (at most [`GROUP`]), each into its
 /// scratch's `centre` and, with `direct`, straight into the render's
