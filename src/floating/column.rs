@@ -188,6 +188,8 @@ pub struct ColumnScratch {
     ahead: Box<Ahead>,
     batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,
+    /// The shared evaluations of a group of columns (kept by its first).
+    pool: Pool,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -248,7 +250,7 @@ pub(crate) unsafe fn render_columns_direct(
     scs: &mut [ColumnScratch],
     direct: Option<(&super::SharedOut<'_>, usize)>,
 ) -> ColumnStats {
-    let pool = RefCell::new(Pool::default());
+    let pool = RefCell::new(std::mem::take(&mut scs[0].pool));
     let h = ctx.cam.height;
     let mut centres: Vec<Vec<Pixel>> = scs
         .iter_mut()
@@ -283,6 +285,7 @@ pub(crate) unsafe fn render_columns_direct(
     for (sc, c) in scs.iter_mut().zip(centres) {
         sc.centre = c;
     }
+    scs[0].pool = pool.into_inner();
     total
 }
 
@@ -897,11 +900,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 start
             };
             Yield(false).await;
-            sc.hs.clear();
-            sc.hs
-                .extend_from_slice(&self.pool.borrow().hs[start..start + n]);
+            let p = self.pool.borrow();
+            self.sampler
+                .finish_many(&ts, &mut batch, sc, &p.hs[start..start + n]);
+        } else {
+            self.sampler.finish_many(&ts, &mut batch, sc, &[]);
         }
-        self.sampler.finish_many(&ts, &mut batch, sc);
         ahead.ts = ts;
         let first = ahead.fill(&mut batch);
         self.batch = batch;

@@ -311,7 +311,9 @@ impl<'a> Sampler<'a> {
         scratch.hs.resize(scratch.u.len(), HeightSample::default());
         self.field
             .eval_batch(&scratch.u, &scratch.v, &mut scratch.hs);
-        self.finish_many(ts, out, scratch);
+        let hs = std::mem::take(&mut scratch.hs);
+        self.finish_many(ts, out, scratch, &hs);
+        scratch.hs = hs;
     }
 
     /// The first half of [`Self::sample_many`]: the points of `ts` inside
@@ -337,15 +339,21 @@ impl<'a> Sampler<'a> {
         }
     }
 
-    /// The second half of [`Self::sample_many`], once `scratch.hs` holds
-    /// the values at the points of [`Self::points_many`].
-    pub fn finish_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &Scratch) {
+    /// The second half of [`Self::sample_many`], `hs` the values at the
+    /// points of [`Self::points_many`].
+    pub fn finish_many(
+        &mut self,
+        ts: &[f64],
+        out: &mut Vec<Option<Raw>>,
+        scratch: &Scratch,
+        hs: &[HeightSample],
+    ) {
         let s = self.line.s0;
         self.evals += scratch.u.len() as u64;
         out.clear();
         out.resize(ts.len(), None);
         for (n, &k) in scratch.idx.iter().enumerate() {
-            let h = scratch.hs[n];
+            let h = hs[n];
             if h.is_finite() {
                 out[k] = Some(Raw {
                     t: ts[k],
