@@ -91,7 +91,20 @@ impl Coverage {
     pub(super) fn contains(&self, x: f64) -> bool {
         self.iv.iter().any(|&(a, b)| x >= a && x <= b)
     }
+    #[inline]
     pub(super) fn add(&mut self, lo: f64, hi: f64) {
+        // The common case: one interval, overlapping [lo, hi] (what the
+        // general case does with it, inline).
+        if let [(a, b)] = self.iv.as_mut_slice() {
+            if !(*b < lo || *a > hi) {
+                (*a, *b) = (a.min(lo), b.max(hi));
+                return;
+            }
+        }
+        self.add_general(lo, hi);
+    }
+
+    fn add_general(&mut self, lo: f64, hi: f64) {
         // In place (no allocation in the common case of one interval).
         let mut first: Option<usize> = None;
         let mut k = 0;
