@@ -197,11 +197,11 @@ pub struct ColumnScratch {
     jobs: Vec<super::refine::Job>,
     seeds: Vec<super::refine::SeedJob>,
     spans: Vec<super::refine::SpanSeed>,
-    ortho: OrthoScratch,
     ahead: Box<Ahead>,
     batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,
-    /// The shared evaluations of a group of columns (kept by its first).
+    /// The shared evaluations and solve buffers of a group of columns
+    /// (kept by its first).
     pool: Pool,
 }
 
@@ -235,11 +235,15 @@ pub(crate) unsafe fn render_column_direct(
     sc: &mut ColumnScratch,
     direct: Option<&super::refine::Direct<'_, '_>>,
 ) -> ColumnStats {
-    let pool = RefCell::new(Pool::default());
-    // SAFETY: as for this function.
-    let task = std::pin::pin!(unsafe { column_task(ctx, col, out, sc, direct, &pool) });
-    let mut tasks = [task];
-    let [st] = run_together(ctx.field, &mut tasks, &pool);
+    let pool = RefCell::new(std::mem::take(&mut sc.pool));
+    let st = {
+        // SAFETY: as for this function.
+        let task = std::pin::pin!(unsafe { column_task(ctx, col, out, sc, direct, &pool) });
+        let mut tasks = [task];
+        let [st] = run_together(ctx.field, &mut tasks, &pool);
+        st
+    };
+    sc.pool = pool.into_inner();
     st
 }
 
@@ -303,12 +307,14 @@ pub(crate) unsafe fn render_columns_direct(
 }
 
 /// Evaluations asked for by the sweeps of columns run together: the points
-/// of the current round, and the values of the last one.
+/// of the current round, and the values of the last one; and the buffers
+/// of their exact solves (each runs whole within one poll).
 #[derive(Debug, Default)]
 pub(super) struct Pool {
     u: Vec<f64>,
     v: Vec<f64>,
     hs: Vec<crate::surface::HeightSample>,
+    ortho: OrthoScratch,
 }
 
 /// A future that is pending once (a sweep waiting for its batch).
@@ -387,7 +393,7 @@ fn drive(
             return;
         }
         let mut p = pool.borrow_mut();
-        let Pool { u, v, hs } = &mut *p;
+        let Pool { u, v, hs, .. } = &mut *p;
         if hs.len() < u.len() {
             hs.resize(u.len(), Default::default());
         }
@@ -482,8 +488,15 @@ async unsafe fn column_task(
     }
     sc.batch = std::mem::take(&mut sw.batch);
     if !sw.seeds.is_empty() {
-        let (failed, evals) =
-            solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, direct, &mut sc.ortho);
+        let (failed, evals) = solve_ortho(
+            ctx,
+            col,
+            &sw.seeds,
+            &sw.spans,
+            out,
+            direct,
+            &mut pool.borrow_mut().ortho,
+        );
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed;
     }
