@@ -76,12 +76,17 @@ impl Shading {
     #[inline]
     pub fn intensity(&self, n: DVec3, to_eye: DVec3) -> f64 {
         // Two-sided: turn the normal to face the viewer.
-        let n = if n.dot(to_eye) < 0.0 { -n } else { n };
-        let l = match self.light {
-            Light::Headlight => to_eye,
-            Light::Directional(l) => l.normalize(),
+        let c = n.dot(to_eye);
+        let n = if c < 0.0 { -n } else { n };
+        let (l, nl) = match self.light {
+            // N·L with L = V is |c|, bit for bit (negating a product or a
+            // sum is exact).
+            Light::Headlight => (to_eye, if c < 0.0 { -c } else { c }),
+            Light::Directional(l) => {
+                let l = l.normalize();
+                (l, n.dot(l))
+            }
         };
-        let nl = n.dot(l);
         let mut i = self.ambient + self.diffuse * nl.max(0.0);
         if self.specular > 0.0 && nl > 0.0 {
             let r = 2.0 * nl * n - l;
@@ -97,7 +102,7 @@ impl Shading {
     /// below, and for NaN, both give 0.
     #[inline]
     pub fn colour(&self, intensity: f64, side: i8) -> [u8; 3] {
-        let base = if side >= 0 { self.upper } else { self.under };
+        let base = if side >= 0 { &self.upper } else { &self.under };
         let q = |c: f64| (c * intensity + 0.5) as u8;
         [q(base[0]), q(base[1]), q(base[2])]
     }

@@ -18,6 +18,7 @@ use crate::camera::Camera;
 use crate::shade::Shading;
 use crate::surface::HeightField;
 use glam::{DVec2, DVec3};
+use std::cell::RefCell;
 
 /// The result for one pixel of a column.
 #[derive(Debug, Clone, Copy, Default)]
@@ -90,7 +91,20 @@ impl Coverage {
     pub(super) fn contains(&self, x: f64) -> bool {
         self.iv.iter().any(|&(a, b)| x >= a && x <= b)
     }
+    #[inline]
     pub(super) fn add(&mut self, lo: f64, hi: f64) {
+        // The common case: one interval, overlapping [lo, hi] (what the
+        // general case does with it, inline).
+        if let [(a, b)] = self.iv.as_mut_slice() {
+            if !(*b < lo || *a > hi) {
+                (*a, *b) = (a.min(lo), b.max(hi));
+                return;
+            }
+        }
+        self.add_general(lo, hi);
+    }
+
+    fn add_general(&mut self, lo: f64, hi: f64) {
         // In place (no allocation in the common case of one interval).
         let mut first: Option<usize> = None;
         let mut k = 0;
@@ -164,6 +178,12 @@ struct Sweep<'c, 'a> {
     /// With `coverage`: the covered rows at floating-point precision,
     /// including the extrema between samples (§6.4).
     fine: Option<Coverage>,
+    /// Where the look-ahead batches are evaluated.
+    pool: &'c RefCell<Pool>,
+    /// §5 problem detection asked for (off by default).
+    detect: bool,
+    /// Has the coverage grown since the last early-exit check?
+    grew: bool,
 }
 
 /// Buffers a worker reuses from column to column.
@@ -177,10 +197,12 @@ pub struct ColumnScratch {
     jobs: Vec<super::refine::Job>,
     seeds: Vec<super::refine::SeedJob>,
     spans: Vec<super::refine::SpanSeed>,
-    ortho: super::refine::NewtonScratch,
     ahead: Box<Ahead>,
     batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,
+    /// The shared evaluations and solve buffers of a group of columns
+    /// (kept by its first).
+    pool: Pool,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -212,6 +234,187 @@ pub(crate) unsafe fn render_column_direct(
     out: &mut [Pixel],
     sc: &mut ColumnScratch,
     direct: Option<&super::refine::Direct<'_, '_>>,
+) -> ColumnStats {
+    let pool = RefCell::new(std::mem::take(&mut sc.pool));
+    let st = {
+        // SAFETY: as for this function.
+        let task = std::pin::pin!(unsafe { column_task(ctx, col, out, sc, direct, &pool) });
+        let mut tasks = [task];
+        let [st] = run_together(ctx.field, &mut tasks, &pool);
+        st
+    };
+    sc.pool = pool.into_inner();
+    st
+}
+
+/// Columns rendered together (orthographic views without supersampling or
+/// coverage): their sweeps' look-ahead batches are evaluated as one.
+pub(crate) const GROUP: usize = 16;
+
+/// Several orthographic columns `cols` (at most [`GROUP`]), each into its
+/// scratch's `centre` and, with `direct`, straight into the render's
+/// buffers: [`render_column_direct`] for each, their sweeps run in step so
+/// that the look-ahead batches of all of them are one evaluation (a batch
+/// of a few points costs nearly as much as one of many; the values are the
+/// same point by point, so the output is too).
+///
+/// # Safety
+/// With `direct`, no other thread reads or writes the pixels of the
+/// columns `cols` meanwhile.
+pub(crate) unsafe fn render_columns_direct(
+    ctx: &Ctx<'_>,
+    cols: std::ops::Range<usize>,
+    scs: &mut [ColumnScratch],
+    direct: Option<(&super::SharedOut<'_>, usize)>,
+) -> ColumnStats {
+    let pool = RefCell::new(std::mem::take(&mut scs[0].pool));
+    let h = ctx.cam.height;
+    let mut centres: Vec<Vec<Pixel>> = scs
+        .iter_mut()
+        .map(|sc| {
+            let mut c = std::mem::take(&mut sc.centre);
+            if c.len() != h {
+                c.clear();
+                c.resize(h, Pixel::default());
+            }
+            c
+        })
+        .collect();
+    let directs: Vec<Direct<'_, '_>> = match direct {
+        Some((out, width)) => cols.clone().map(|j| Direct { out, j, width }).collect(),
+        None => Vec::new(),
+    };
+    let mut tasks: Vec<_> = cols
+        .clone()
+        .zip(centres.iter_mut().zip(scs.iter_mut()))
+        .enumerate()
+        .map(|(k, (j, (c, sc)))| {
+            // SAFETY: as for this function; pixel (i, j) of column j only.
+            Box::pin(unsafe { column_task(ctx, j as f64, c, sc, directs.get(k), &pool) })
+        })
+        .collect();
+    let sts = run_together_vec(ctx.field, &mut tasks, &pool);
+    drop(tasks);
+    let mut total = ColumnStats::default();
+    for st in &sts {
+        total.add(st);
+    }
+    for (sc, c) in scs.iter_mut().zip(centres) {
+        sc.centre = c;
+    }
+    scs[0].pool = pool.into_inner();
+    total
+}
+
+/// Evaluations asked for by the sweeps of columns run together: the points
+/// of the current round, and the values of the last one; and the buffers
+/// of their exact solves (each runs whole within one poll).
+#[derive(Debug, Default)]
+pub(super) struct Pool {
+    u: Vec<f64>,
+    v: Vec<f64>,
+    hs: Vec<crate::surface::HeightSample>,
+    ortho: OrthoScratch,
+}
+
+/// A future that is pending once (a sweep waiting for its batch).
+struct Yield(bool);
+
+impl std::future::Future for Yield {
+    type Output = ();
+    fn poll(
+        mut self: std::pin::Pin<&mut Self>,
+        _: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<()> {
+        if self.0 {
+            std::task::Poll::Ready(())
+        } else {
+            self.0 = true;
+            std::task::Poll::Pending
+        }
+    }
+}
+
+/// Run column tasks to the end: poll each, evaluate the points they ask
+/// for in one batch, and again, until all are done.
+fn run_together<F: std::future::Future<Output = ColumnStats>, const N: usize>(
+    field: &dyn HeightField,
+    tasks: &mut [std::pin::Pin<&mut F>; N],
+    pool: &RefCell<Pool>,
+) -> [ColumnStats; N] {
+    let mut done: [Option<ColumnStats>; N] = [None; N];
+    drive(field, pool, N, |k, cx| {
+        if done[k].is_some() {
+            return true;
+        }
+        if let std::task::Poll::Ready(st) = tasks[k].as_mut().poll(cx) {
+            done[k] = Some(st);
+        }
+        done[k].is_some()
+    });
+    done.map(|d| d.unwrap_or_default())
+}
+
+/// [`run_together`] for boxed tasks.
+fn run_together_vec<F: std::future::Future<Output = ColumnStats>>(
+    field: &dyn HeightField,
+    tasks: &mut [std::pin::Pin<Box<F>>],
+    pool: &RefCell<Pool>,
+) -> Vec<ColumnStats> {
+    let n = tasks.len();
+    let mut done: Vec<Option<ColumnStats>> = vec![None; n];
+    drive(field, pool, n, |k, cx| {
+        if done[k].is_some() {
+            return true;
+        }
+        if let std::task::Poll::Ready(st) = tasks[k].as_mut().poll(cx) {
+            done[k] = Some(st);
+        }
+        done[k].is_some()
+    });
+    done.into_iter().map(|d| d.unwrap_or_default()).collect()
+}
+
+/// The rounds of [`run_together`]: `poll(k, cx)` polls task k and tells
+/// whether it is done.
+fn drive(
+    field: &dyn HeightField,
+    pool: &RefCell<Pool>,
+    n: usize,
+    mut poll: impl FnMut(usize, &mut std::task::Context<'_>) -> bool,
+) {
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    loop {
+        let mut all = true;
+        for k in 0..n {
+            all &= poll(k, &mut cx);
+        }
+        if all {
+            return;
+        }
+        let mut p = pool.borrow_mut();
+        let Pool { u, v, hs, .. } = &mut *p;
+        if hs.len() < u.len() {
+            hs.resize(u.len(), Default::default());
+        }
+        field.eval_batch(u, v, &mut hs[..u.len()]);
+        u.clear();
+        v.clear();
+    }
+}
+
+/// [`render_column_direct`] as a task that waits for its look-ahead
+/// batches to be evaluated with those of other columns (`pool`).
+///
+/// # Safety
+/// As for [`render_column_direct`].
+async unsafe fn column_task(
+    ctx: &Ctx<'_>,
+    col: f64,
+    out: &mut [Pixel],
+    sc: &mut ColumnScratch,
+    direct: Option<&super::refine::Direct<'_, '_>>,
+    pool: &RefCell<Pool>,
 ) -> ColumnStats {
     let fr = ctx.frame;
     let xpix = fr.xpix(col);
@@ -256,15 +459,19 @@ pub(crate) unsafe fn render_column_direct(
         }),
         batch: std::mem::take(&mut sc.batch),
         fine: ctx.opts.coverage.then(Coverage::default),
+        pool,
+        detect: ctx.opts.corrections.any_detection(),
+        grew: false,
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
-            sw.sweep(t0, 1.0, t1 - t0, out);
+            sw.sweep(t0, 1.0, t1 - t0, out).await;
         }
     } else {
         let (tmin, tmax) = fr.domain_t_range();
         if tmax > 0.0 {
-            sw.sweep(tmin.max(0.0), 1.0, tmax - tmin.max(0.0), out);
+            sw.sweep(tmin.max(0.0), 1.0, tmax - tmin.max(0.0), out)
+                .await;
         }
         // Rays whose horizontal direction points backwards (looking steeply
         // down or up): a second, independent sweep from the eye backwards.
@@ -272,7 +479,8 @@ pub(crate) unsafe fn render_column_direct(
         let back = fr.focal * fr.d_t - hh * fr.up_t.abs() < 0.0;
         if back && tmin < 0.0 {
             sw.cov = Coverage::default();
-            sw.sweep(tmax.min(0.0), -1.0, tmax.min(0.0) - tmin, out);
+            sw.sweep(tmax.min(0.0), -1.0, tmax.min(0.0) - tmin, out)
+                .await;
         }
     }
     if let Some(a) = sw.ahead.take() {
@@ -280,8 +488,15 @@ pub(crate) unsafe fn render_column_direct(
     }
     sc.batch = std::mem::take(&mut sw.batch);
     if !sw.seeds.is_empty() {
-        let (failed, evals) =
-            super::refine::solve_ortho(ctx, col, &sw.seeds, &sw.spans, out, direct, &mut sc.ortho);
+        let (failed, evals) = solve_ortho(
+            ctx,
+            col,
+            &sw.seeds,
+            &sw.spans,
+            out,
+            direct,
+            &mut pool.borrow_mut().ortho,
+        );
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed;
     }
@@ -315,6 +530,193 @@ pub(crate) unsafe fn render_column_direct(
     sc.seeds = std::mem::take(&mut sw.seeds);
     sc.spans = std::mem::take(&mut sw.spans);
     sw.stats
+}
+
+/// Buffers of [`solve_ortho`], reused from column to column.
+#[derive(Debug, Default)]
+pub(super) struct OrthoScratch {
+    /// Per job: its ray origin and current depth.
+    orig: Vec<DVec3>,
+    lam: Vec<f64>,
+    /// Jobs still moving, and the next round's.
+    active: Vec<u32>,
+    next: Vec<u32>,
+    /// Per evaluated job of a round: the job, its point and its value.
+    live: Vec<u32>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    pz: Vec<f64>,
+    hs: Vec<crate::surface::HeightSample>,
+    failed: Vec<u32>,
+}
+
+/// The exact solve of the pixels of orthographic column `col` seeded by
+/// their spans: the batched Newton of [`super::refine::newton`] on the
+/// camera's rays (the same steps, bit for bit), with the ray origins
+/// computed once from the rows and each pixel written once, when its solve
+/// ends (an exact hit, or its span's interpolation should the solve fail):
+/// into `out`, or with `direct`, straight into the render's buffers.
+/// Returns the number of failures and of evaluations.
+fn solve_ortho(
+    ctx: &Ctx<'_>,
+    col: f64,
+    jobs: &[super::refine::SeedJob],
+    spans: &[super::refine::SpanSeed],
+    out: &mut [Pixel],
+    direct: Option<&Direct<'_, '_>>,
+    sc: &mut OrthoScratch,
+) -> (u64, u64) {
+    let cam = ctx.cam;
+    let d = cam.d;
+    let dom = ctx.frame.domain;
+    let normal = ctx.opts.shading == ShadingMode::Normal;
+    // A job is done when its step is under `refine_tol` pixels.
+    let tol = ctx.opts.refine_tol * ctx.frame.pixel;
+    // The ray origin of row i: what `Camera::ray` gives, the column's part
+    // hoisted.
+    let (xs, _) = cam.pixel_to_screen(0.0, col);
+    let base = cam.eye + (xs * cam.pixel) * cam.r;
+    let OrthoScratch {
+        orig,
+        lam,
+        active,
+        next,
+        live,
+        u,
+        v,
+        pz,
+        hs,
+        failed,
+    } = sc;
+    let n = jobs.len();
+    orig.clear();
+    lam.clear();
+    orig.extend(jobs.iter().map(|j| {
+        let (_, ys) = cam.pixel_to_screen(j.slot as f64, col);
+        base + (ys * cam.pixel) * cam.up
+    }));
+    lam.extend(jobs.iter().map(|j| j.lam));
+    active.clear();
+    active.extend(0..n as u32);
+    failed.clear();
+    let mut evals = 0u64;
+    for _ in 0..ctx.opts.refine_iters {
+        if active.is_empty() {
+            break;
+        }
+        u.clear();
+        v.clear();
+        pz.clear();
+        live.clear();
+        for &k in active.iter() {
+            let p = orig[k as usize] + lam[k as usize] * d;
+            if dom.contains(p.x, p.y) {
+                u.push(p.x);
+                v.push(p.y);
+                pz.push(p.z);
+                live.push(k);
+            } else {
+                failed.push(k);
+            }
+        }
+        // Grown only: a height field's batch writes every element.
+        if hs.len() < live.len() {
+            hs.resize(live.len(), Default::default());
+        }
+        let hs = &mut hs[..live.len()];
+        ctx.field.eval_batch(u, v, hs);
+        evals += live.len() as u64;
+        next.clear();
+        for ((&k, h), &pz) in live.iter().zip(hs.iter()).zip(pz.iter()) {
+            let ku = k as usize;
+            if !h.is_finite() {
+                failed.push(k);
+                continue;
+            }
+            let g = pz - h.f;
+            let gp = d.z - (h.fu * d.x + h.fv * d.y);
+            if gp == 0.0 || !gp.is_finite() {
+                failed.push(k);
+                continue;
+            }
+            let j = &jobs[ku];
+            let s = &spans[j.span as usize];
+            let dl = g / gp;
+            let l = lam[ku] - dl;
+            if !(l >= s.lo && l <= s.hi) {
+                failed.push(k);
+                continue;
+            }
+            lam[ku] = l;
+            if dl.abs() > tol {
+                next.push(k);
+                continue;
+            }
+            let q = orig[ku] + l * d;
+            if !dom.contains(q.x, q.y) {
+                failed.push(k);
+                continue;
+            }
+            let nrm = h.normal();
+            let c = -d.dot(nrm);
+            let side = if c > 0.0 {
+                1
+            } else if c < 0.0 {
+                -1
+            } else {
+                s.topo
+            };
+            let inten = if normal {
+                ctx.shading.intensity(nrm, -d)
+            } else {
+                s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
+            };
+            match direct {
+                // SAFETY: the caller of `render_column_direct` guarantees
+                // that no other thread touches column `j`'s pixels.
+                Some(dst) => unsafe {
+                    let k = j.slot as usize * dst.width + dst.j;
+                    dst.out
+                        .put_hit(k, side, inten, l, nrm, DVec2::new(q.x, q.y));
+                },
+                None => {
+                    out[j.slot as usize] = Pixel {
+                        set: true,
+                        side,
+                        depth: l,
+                        n: nrm,
+                        uv: DVec2::new(q.x, q.y),
+                        inten,
+                        cover: 1.0,
+                    }
+                }
+            }
+        }
+        std::mem::swap(active, next);
+    }
+    failed.extend_from_slice(active);
+    // The failed pixels keep their span's interpolation.
+    for &k in failed.iter() {
+        let j = &jobs[k as usize];
+        let mut px = spans[j.span as usize].pixel(j.tau, j.lam);
+        if normal {
+            px.inten = ctx.shading.intensity(px.n, -d);
+        }
+        put_solved(out, direct, j.slot, &px);
+    }
+    (failed.len() as u64, evals)
+}
+
+/// Write a finished pixel of row `slot` of an orthographic column: into
+/// `out`, or with `direct`, straight into the render's buffers.
+#[inline(always)]
+fn put_solved(out: &mut [Pixel], direct: Option<&Direct<'_, '_>>, slot: u32, px: &Pixel) {
+    match direct {
+        // SAFETY: the caller of `render_column_direct` guarantees that no
+        // other thread touches column `j`'s pixels.
+        Some(dst) => unsafe { dst.out.put_set(slot as usize * dst.width + dst.j, px) },
+        None => out[slot as usize] = *px,
+    }
 }
 
 /// Range of the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1
@@ -463,7 +865,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// [τ + h/2, τ + h_max] already evaluated ahead (a smaller step than
     /// wanted is always safe: the row gap is checked all the same). The
     /// sample is written into `out` (in place: samples are large); returns
-    /// τ' and whether there is one (`out` is garbage otherwise).
+    /// τ' and whether there is one (`out` is garbage otherwise), or `None`
+    /// when the look-ahead has nothing that fits ([`Self::refill`]).
     #[allow(clippy::too_many_arguments)]
     fn next(
         &mut self,
@@ -475,37 +878,71 @@ impl<'c, 'a> Sweep<'c, 'a> {
         snap: f64,
         pred: f64,
         out: &mut Sample,
-    ) -> (f64, bool) {
-        let Some(mut ahead) = self.ahead.take() else {
+    ) -> Option<(f64, bool)> {
+        let Some(ahead) = self.ahead.as_mut() else {
             let mut tau_n = tau + h;
             if tau_n >= limit - snap {
                 tau_n = limit;
             }
-            return match self.sample(tt(tau_n), pred) {
+            return Some(match self.sample(tt(tau_n), pred) {
                 Some(x) => {
                     *out = x;
                     (tau_n, true)
                 }
                 None => (tau_n, false),
-            };
+            });
         };
         let hi = (tau + h_max).min(limit);
-        let r = match ahead.take(tau + 0.5 * h, hi) {
-            Some(x) => x,
-            None => {
-                let mut ts = std::mem::take(&mut ahead.ts);
-                ts.clear();
-                ts.extend(ahead.plan(tau, h, limit, snap).iter().map(|&x| tt(x)));
-                let mut batch = std::mem::take(&mut self.batch);
-                self.sampler
-                    .sample_many(&ts, &mut batch, &mut ahead.scratch);
-                ahead.ts = ts;
-                let first = ahead.fill(&mut batch);
-                self.batch = batch;
-                first
-            }
-        };
+        let r = ahead.take(tau + 0.5 * h, hi)?;
+        Some(self.finish_raw(r, out))
+    }
+
+    /// [`Self::next`] where nothing buffered fits: a new look-ahead batch
+    /// from τ at step h, evaluated with the other columns' batches, and
+    /// its first sample.
+    async fn refill(
+        &mut self,
+        tt: impl Fn(f64) -> f64,
+        tau: f64,
+        h: f64,
+        limit: f64,
+        snap: f64,
+        out: &mut Sample,
+    ) -> (f64, bool) {
+        let mut ahead = self.ahead.take().expect("look-ahead sweep");
+        let mut ts = std::mem::take(&mut ahead.ts);
+        ts.clear();
+        ts.extend(ahead.plan(tau, h, limit, snap).iter().map(|&x| tt(x)));
+        let mut batch = std::mem::take(&mut self.batch);
+        self.sampler.points_many(&ts, &mut ahead.scratch);
+        let sc = &mut ahead.scratch;
+        let n = sc.u.len();
+        if n > 0 {
+            let start = {
+                let mut p = self.pool.borrow_mut();
+                let start = p.u.len();
+                p.u.extend_from_slice(&sc.u);
+                p.v.extend_from_slice(&sc.v);
+                start
+            };
+            Yield(false).await;
+            let p = self.pool.borrow();
+            self.sampler
+                .finish_many(&ts, &mut batch, sc, &p.hs[start..start + n]);
+        } else {
+            self.sampler.finish_many(&ts, &mut batch, sc, &[]);
+        }
+        ahead.ts = ts;
+        let first = ahead.fill(&mut batch);
+        self.batch = batch;
         self.ahead = Some(ahead);
+        self.finish_raw(first, out)
+    }
+
+    /// The sample of a look-ahead point (τ', raw values) into `out`;
+    /// returns τ' and whether there is one.
+    #[inline]
+    fn finish_raw(&mut self, r: (f64, Option<Raw>), out: &mut Sample) -> (f64, bool) {
         let ok = match r.1 {
             Some(x) => {
                 self.sampler.finish_into(x.t, x.uv, x.h, false, out);
@@ -540,7 +977,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     }
 
     /// One sweep: t = t_start + sign·τ for τ in [0, len].
-    fn sweep(&mut self, t_start: f64, sign: f64, len: f64, out: &mut [Pixel]) {
+    async fn sweep(&mut self, t_start: f64, sign: f64, len: f64, out: &mut [Pixel]) {
         let opts = self.ctx.opts;
         let fr = self.ctx.frame;
         let step_px = opts.step();
@@ -598,7 +1035,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 } else {
                     last_w
                 };
-                let (tau_n, ok) = self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred, pb);
+                let (tau_n, ok) = match self.next(tt, tau, h, h_max, limit, 1e-12 * fp, pred, pb) {
+                    Some(r) => r,
+                    None => self.refill(tt, tau, h, limit, 1e-12 * fp, pb).await,
+                };
                 let hh = tau_n - tau;
                 match (has_prev, ok) {
                     (true, true) => {
@@ -672,7 +1112,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
                     }
                 }
             }
-            if self.cov.covers(-0.5, self.h as f64 - 0.5) {
+            // Early exit once every row is covered (checked only when
+            // the coverage grew).
+            if std::mem::take(&mut self.grew) && self.cov.covers(-0.5, self.h as f64 - 0.5) {
                 self.stats.early_exit += 1;
                 return;
             }
@@ -737,6 +1179,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let r = self.clamp_row(a.rho);
         if !self.cov.contains(r) {
             self.cov.add(r, r);
+            self.grew = true;
             if let Some(f) = self.fine.as_mut() {
                 f.add(r, r);
             }
@@ -747,10 +1190,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// b: extra samples are inserted (and their spans drawn); returns the
     /// sample the caller's last span (to b) starts from when it is not a.
     fn correct(&mut self, a: &Sample, b: &Sample, out: &mut [Pixel]) -> Option<Sample> {
-        let c = self.ctx.opts.corrections;
-        if !c.any_detection() {
+        if !self.detect {
             return None;
         }
+        let c = self.ctx.opts.corrections;
         let m = self.ctx.frame.plane_normal(self.ctx.cam, self.col);
         let problem = artifacts::detect(&c, a, b, m)?;
         self.stats.problems += 1;
@@ -805,7 +1248,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
                 // The common orthographic case, every pixel queued for its
                 // exact solve and written once when it ends
-                // ([`super::refine::solve_ortho`]): its seed depth and its
+                // ([`solve_ortho`]): its seed depth and its
                 // weight in the span, the span's values kept once. With
                 // coverage the interpolated pixel is also put in the column
                 // at once, for the §6.4 edge pass of the spans to come.
@@ -856,6 +1299,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             }
         }
         self.cov.add(lo, hi);
+        self.grew = true;
     }
 
     /// §6.4 sub-pixel coverage of the span from a to b (rows lo..hi): the

@@ -262,12 +262,22 @@ pub fn render_floating_column(
         // buffers (each pixel belongs to one column); a worker's columns
         // reuse one scratch (pixels, sweep and solve buffers).
         let out = SharedOut::new(&mut buf, shading);
+        // Plain renders: groups of columns whose sweeps share their batched
+        // evaluations (column::render_columns_direct).
+        let group = if shade_aa || cov { 1 } else { column::GROUP };
         total = with_threads(opts.threads, || {
-            (0..width)
+            (0..width.div_ceil(group))
                 .into_par_iter()
-                .map_init(column::ColumnScratch::default, |sc, j| {
+                .map(|g| {
                     cancel.check()?;
-                    Ok(ortho_column(&ctx, j, sc, &out, shade_aa, geom))
+                    let js = g * group..((g + 1) * group).min(width);
+                    Ok(with_scratch(js.len(), |scs| {
+                        if group == 1 {
+                            ortho_column(&ctx, js.start, &mut scs[0], &out, shade_aa, geom)
+                        } else {
+                            ortho_group(&ctx, js, scs, &out)
+                        }
+                    }))
                 })
                 .try_reduce(ColumnStats::default, |mut a, b| {
                     a.add(&b);
@@ -369,6 +379,59 @@ fn ortho_column(
     }
     sc.centre = centre;
     sc.acc = acc;
+    st
+}
+
+thread_local! {
+    /// Column buffers of this worker, kept from task to task (rayon calls a
+    /// `map_init` initialiser once per split job, too often for buffers
+    /// that grow to a column's needs).
+    static SCRATCH: std::cell::RefCell<Vec<column::ColumnScratch>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Run `f` on at least `n` column buffers of this worker.
+fn with_scratch<T>(n: usize, f: impl FnOnce(&mut [column::ColumnScratch]) -> T) -> T {
+    SCRATCH.with(|cell| match cell.try_borrow_mut() {
+        Ok(mut scs) => {
+            if scs.len() < n {
+                scs.resize_with(n, Default::default);
+            }
+            f(&mut scs[..n])
+        }
+        // Re-entered (not expected): fresh buffers.
+        Err(_) => {
+            let mut scs: Vec<column::ColumnScratch> = Vec::new();
+            scs.resize_with(n, Default::default);
+            f(&mut scs)
+        }
+    })
+}
+
+/// Render the orthographic columns `js` of a plain render (no
+/// supersampling, no coverage) together and write them into `out`.
+fn ortho_group(
+    ctx: &Ctx<'_>,
+    js: std::ops::Range<usize>,
+    scs: &mut [column::ColumnScratch],
+    out: &SharedOut<'_>,
+) -> ColumnStats {
+    let w = ctx.cam.width;
+    let scs = &mut scs[..js.len()];
+    // SAFETY: pixel (i, j) belongs to column j only, and this call alone
+    // renders the columns js.
+    let st = unsafe { column::render_columns_direct(ctx, js.clone(), scs, Some((out, w))) };
+    for (j, sc) in js.zip(scs.iter_mut()) {
+        for (i, p) in sc.centre.iter_mut().enumerate() {
+            if p.set {
+                // SAFETY: pixel (i, j) belongs to column j only.
+                unsafe { out.put_set(i * w + j, p) };
+                // The other pixels are read only where set (and written
+                // whole when set).
+                p.set = false;
+            }
+        }
+    }
     st
 }
 
@@ -508,33 +571,52 @@ impl<'a> SharedOut<'a> {
     /// No other thread reads or writes pixel k meanwhile.
     #[inline]
     pub(crate) unsafe fn put_set(&self, k: usize, p: &Pixel) {
-        assert!(k < self.n, "pixel index out of range");
         assert!(p.set, "put_set of an unset pixel");
+        // SAFETY: the caller's guarantee.
+        unsafe { self.put_hit(k, p.side, p.inten, p.depth, p.n, p.uv) }
+    }
+
+    /// [`Self::put_set`] of a set pixel given by its values (side,
+    /// intensity, depth, normal, (u, v)), in one pass over the buffers.
+    ///
+    /// # Safety
+    /// No other thread reads or writes pixel k meanwhile.
+    #[inline(always)]
+    pub(crate) unsafe fn put_hit(
+        &self,
+        k: usize,
+        side: i8,
+        inten: f64,
+        depth: f64,
+        n: glam::DVec3,
+        uv: glam::DVec2,
+    ) {
+        assert!(k < self.n, "pixel index out of range");
         // SAFETY: k < n, every non-null view holds n pixels, and the caller
         // guarantees exclusive access to pixel k.
         unsafe {
             if !self.rgb.is_null() {
-                let c = self.shading.colour(p.inten, p.side);
+                let c = self.shading.colour(inten, side);
                 std::ptr::copy_nonoverlapping(c.as_ptr(), self.rgb.add(3 * k), 3);
             }
             if !self.intensity.is_null() {
-                *self.intensity.add(k) = p.inten as f32;
+                *self.intensity.add(k) = inten as f32;
             }
             if !self.depth.is_null() {
-                *self.depth.add(k) = p.depth as f32;
+                *self.depth.add(k) = depth as f32;
             }
             if !self.normal.is_null() {
                 let v = self.normal.add(3 * k);
-                *v = p.n.x as f32;
-                *v.add(1) = p.n.y as f32;
-                *v.add(2) = p.n.z as f32;
+                *v = n.x as f32;
+                *v.add(1) = n.y as f32;
+                *v.add(2) = n.z as f32;
             }
             if !self.uv.is_null() {
-                *self.uv.add(2 * k) = p.uv.x as f32;
-                *self.uv.add(2 * k + 1) = p.uv.y as f32;
+                *self.uv.add(2 * k) = uv.x as f32;
+                *self.uv.add(2 * k + 1) = uv.y as f32;
             }
             if !self.side.is_null() {
-                *self.side.add(k) = p.side;
+                *self.side.add(k) = side;
             }
             if !self.mask.is_null() {
                 *self.mask.add(k) = true;

@@ -307,6 +307,19 @@ impl<'a> Sampler<'a> {
     /// the batch gives exactly what [`Self::sample`] gives point by point).
     /// Points outside the domain are `None` and not evaluated.
     pub fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
+        self.points_many(ts, scratch);
+        scratch.hs.resize(scratch.u.len(), HeightSample::default());
+        self.field
+            .eval_batch(&scratch.u, &scratch.v, &mut scratch.hs);
+        let hs = std::mem::take(&mut scratch.hs);
+        self.finish_many(ts, out, scratch, &hs);
+        scratch.hs = hs;
+    }
+
+    /// The first half of [`Self::sample_many`]: the points of `ts` inside
+    /// the domain, into `scratch.u` and `scratch.v` (to be evaluated into
+    /// `scratch.hs`, by this sampler's field or batched with others).
+    pub fn points_many(&self, ts: &[f64], scratch: &mut Scratch) {
         debug_assert!(self.line.kappa == 0.0);
         let fr = self.frame;
         let s = self.line.s0;
@@ -324,14 +337,23 @@ impl<'a> Sampler<'a> {
                 scratch.idx.push(k);
             }
         }
-        scratch.hs.resize(scratch.u.len(), HeightSample::default());
-        self.field
-            .eval_batch(&scratch.u, &scratch.v, &mut scratch.hs);
+    }
+
+    /// The second half of [`Self::sample_many`], `hs` the values at the
+    /// points of [`Self::points_many`].
+    pub fn finish_many(
+        &mut self,
+        ts: &[f64],
+        out: &mut Vec<Option<Raw>>,
+        scratch: &Scratch,
+        hs: &[HeightSample],
+    ) {
+        let s = self.line.s0;
         self.evals += scratch.u.len() as u64;
         out.clear();
         out.resize(ts.len(), None);
         for (n, &k) in scratch.idx.iter().enumerate() {
-            let h = scratch.hs[n];
+            let h = hs[n];
             if h.is_finite() {
                 out[k] = Some(Raw {
                     t: ts[k],

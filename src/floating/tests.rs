@@ -519,3 +519,49 @@ fn pseudo_elevation_is_tan_half_angle_and_monotone() {
         prev = s;
     }
 }
+
+/// An orthographic render, whose columns run in groups sharing their
+/// batched evaluations, holds exactly the pixels each column gives alone
+/// (a width not a multiple of the group, a compiled expression so that the
+/// shared batches take the vectorised path).
+#[test]
+fn grouped_columns_equal_single_columns() {
+    let d = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+    let f = crate::source::ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, d).unwrap();
+    let (w, h) = (column::GROUP + 13, 37);
+    let cam = Camera::new(&ortho(30.0, 30.0, 13.0), w, h).unwrap();
+    let sh = Shading::default();
+    let opts = FloatingOptions::default();
+    let b =
+        render_floating_column(&f, &cam.view, w, h, &all(), &sh, &opts, &Cancel::new()).unwrap();
+    let ctx = Ctx {
+        cam: &cam,
+        frame: sampling::Frame::new(&cam, f.domain()),
+        field: &f,
+        shading: &sh,
+        opts: &opts,
+        refine: true,
+        fallback: true,
+    };
+    let (depth, normal, mask) = (b.depth.unwrap(), b.normal.unwrap(), b.mask.unwrap());
+    let mut seen = 0;
+    for j in 0..w {
+        let mut out = vec![Pixel::default(); h];
+        column::render_column(&ctx, j as f64, &mut out);
+        for (i, p) in out.iter().enumerate() {
+            let k = i * w + j;
+            assert_eq!(mask[k], p.set, "mask at ({i}, {j})");
+            if p.set {
+                seen += 1;
+                assert_eq!(
+                    depth[k].to_bits(),
+                    (p.depth as f32).to_bits(),
+                    "depth at ({i}, {j})"
+                );
+                let n = [p.n.x as f32, p.n.y as f32, p.n.z as f32];
+                assert_eq!(&normal[3 * k..3 * k + 3], &n, "normal at ({i}, {j})");
+            }
+        }
+    }
+    assert!(seen > w * h / 4, "too little surface seen: {seen}");
+}
