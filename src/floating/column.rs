@@ -535,28 +535,17 @@ async unsafe fn column_task(
 /// Buffers of [`solve_ortho`], reused from column to column.
 #[derive(Debug, Default)]
 pub(super) struct OrthoScratch {
-    /// Per job: its ray origin and current depth.
+    /// Per job: its ray origin.
     orig: Vec<DVec3>,
-    lam: Vec<f64>,
-    /// Jobs still moving, and the next round's.
-    active: Vec<u32>,
-    next: Vec<u32>,
-    /// Per evaluated job of a round: the job, its point and its value.
-    live: Vec<u32>,
-    u: Vec<f64>,
-    v: Vec<f64>,
-    pz: Vec<f64>,
-    hs: Vec<crate::surface::HeightSample>,
-    failed: Vec<u32>,
+    newton: super::refine::NewtonScratch,
 }
 
 /// The exact solve of the pixels of orthographic column `col` seeded by
-/// their spans: the batched Newton of [`super::refine::newton`] on the
-/// camera's rays (the same steps, bit for bit), with the ray origins
-/// computed once from the rows and each pixel written once, when its solve
-/// ends (an exact hit, or its span's interpolation should the solve fail):
-/// into `out`, or with `direct`, straight into the render's buffers.
-/// Returns the number of failures and of evaluations.
+/// their spans: [`super::refine::newton`] on the camera's rays, with the
+/// ray origins computed once from the rows and each pixel written once,
+/// when its solve ends (an exact hit, or its span's interpolation should
+/// the solve fail): into `out`, or with `direct`, straight into the
+/// render's buffers. Returns the number of failures and of evaluations.
 fn solve_ortho(
     ctx: &Ctx<'_>,
     col: f64,
@@ -568,95 +557,31 @@ fn solve_ortho(
 ) -> (u64, u64) {
     let cam = ctx.cam;
     let d = cam.d;
-    let dom = ctx.frame.domain;
     let normal = ctx.opts.shading == ShadingMode::Normal;
-    // A job is done when its step is under `refine_tol` pixels.
-    let tol = ctx.opts.refine_tol * ctx.frame.pixel;
     // The ray origin of row i: what `Camera::ray` gives, the column's part
     // hoisted.
     let (xs, _) = cam.pixel_to_screen(0.0, col);
     let base = cam.eye + (xs * cam.pixel) * cam.r;
-    let OrthoScratch {
-        orig,
-        lam,
-        active,
-        next,
-        live,
-        u,
-        v,
-        pz,
-        hs,
-        failed,
-    } = sc;
-    let n = jobs.len();
+    let OrthoScratch { orig, newton } = sc;
     orig.clear();
-    lam.clear();
     orig.extend(jobs.iter().map(|j| {
         let (_, ys) = cam.pixel_to_screen(j.slot as f64, col);
         base + (ys * cam.pixel) * cam.up
     }));
-    lam.extend(jobs.iter().map(|j| j.lam));
-    active.clear();
-    active.extend(0..n as u32);
-    failed.clear();
-    let mut evals = 0u64;
-    for _ in 0..ctx.opts.refine_iters {
-        if active.is_empty() {
-            break;
-        }
-        u.clear();
-        v.clear();
-        pz.clear();
-        live.clear();
-        for &k in active.iter() {
-            let p = orig[k as usize] + lam[k as usize] * d;
-            if dom.contains(p.x, p.y) {
-                u.push(p.x);
-                v.push(p.y);
-                pz.push(p.z);
-                live.push(k);
-            } else {
-                failed.push(k);
-            }
-        }
-        // Grown only: a height field's batch writes every element.
-        if hs.len() < live.len() {
-            hs.resize(live.len(), Default::default());
-        }
-        let hs = &mut hs[..live.len()];
-        ctx.field.eval_batch(u, v, hs);
-        evals += live.len() as u64;
-        next.clear();
-        for ((&k, h), &pz) in live.iter().zip(hs.iter()).zip(pz.iter()) {
-            let ku = k as usize;
-            if !h.is_finite() {
-                failed.push(k);
-                continue;
-            }
-            let g = pz - h.f;
-            let gp = d.z - (h.fu * d.x + h.fv * d.y);
-            if gp == 0.0 || !gp.is_finite() {
-                failed.push(k);
-                continue;
-            }
-            let j = &jobs[ku];
+    let fp = ctx.frame.pixel;
+    let evals = super::refine::newton(
+        ctx,
+        jobs.len(),
+        |k| jobs[k].lam,
+        |k| (orig[k], d),
+        |k| {
+            let s = &spans[jobs[k].span as usize];
+            (s.lo, s.hi, fp)
+        },
+        newton,
+        |k, l, q, h| {
+            let j = &jobs[k];
             let s = &spans[j.span as usize];
-            let dl = g / gp;
-            let l = lam[ku] - dl;
-            if !(l >= s.lo && l <= s.hi) {
-                failed.push(k);
-                continue;
-            }
-            lam[ku] = l;
-            if dl.abs() > tol {
-                next.push(k);
-                continue;
-            }
-            let q = orig[ku] + l * d;
-            if !dom.contains(q.x, q.y) {
-                failed.push(k);
-                continue;
-            }
             let nrm = h.normal();
             let c = -d.dot(nrm);
             let side = if c > 0.0 {
@@ -691,12 +616,11 @@ fn solve_ortho(
                     }
                 }
             }
-        }
-        std::mem::swap(active, next);
-    }
-    failed.extend_from_slice(active);
+        },
+    );
     // The failed pixels keep their span's interpolation.
-    for &k in failed.iter() {
+    let failed = newton.failed();
+    for &k in failed {
         let j = &jobs[k as usize];
         let mut px = spans[j.span as usize].pixel(j.tau, j.lam);
         if normal {

@@ -32,6 +32,8 @@ pub struct NewtonScratch {
     live: Vec<u32>,
     u: Vec<f64>,
     v: Vec<f64>,
+    /// The height of each live job's point on its ray.
+    pz: Vec<f64>,
     hs: Vec<HeightSample>,
     failed: Vec<u32>,
 }
@@ -73,6 +75,7 @@ pub(crate) fn newton(
         live,
         u,
         v,
+        pz,
         hs,
         failed,
     } = sc;
@@ -88,6 +91,7 @@ pub(crate) fn newton(
         }
         u.clear();
         v.clear();
+        pz.clear();
         live.clear();
         for &k in active.iter() {
             let (o, dir) = ray(k as usize);
@@ -95,6 +99,7 @@ pub(crate) fn newton(
             if dom.contains(p.x, p.y) {
                 u.push(p.x);
                 v.push(p.y);
+                pz.push(p.z);
                 live.push(k);
             } else {
                 failed.push(k);
@@ -108,17 +113,15 @@ pub(crate) fn newton(
         ctx.field.eval_batch(u, v, hs);
         evals += live.len() as u64;
         next.clear();
-        for (i, &k) in live.iter().enumerate() {
+        for ((&k, h), &pz) in live.iter().zip(hs.iter()).zip(pz.iter()) {
             let k = k as usize;
-            let h = hs[i];
-            let (o, dir) = ray(k);
-            let (lo, hi, fp) = bracket(k);
-            let p = o + lam[k] * dir;
             if !h.is_finite() {
                 failed.push(k as u32);
                 continue;
             }
-            let g = p.z - h.f;
+            let (o, dir) = ray(k);
+            let (lo, hi, fp) = bracket(k);
+            let g = pz - h.f;
             let gp = dir.z - (h.fu * dir.x + h.fv * dir.y);
             if gp == 0.0 || !gp.is_finite() {
                 failed.push(k as u32);
@@ -137,7 +140,7 @@ pub(crate) fn newton(
                     failed.push(k as u32);
                     continue;
                 }
-                hit(k, l, q, &h);
+                hit(k, l, q, h);
             } else {
                 next.push(k as u32);
             }
