@@ -239,9 +239,9 @@ pub(crate) unsafe fn render_column_direct(
     let st = {
         // SAFETY: as for this function.
         let task = std::pin::pin!(unsafe { column_task(ctx, col, out, sc, direct, &pool) });
-        let mut tasks = [task];
-        let [st] = run_together(ctx.field, &mut tasks, &pool);
-        st
+        let mut st = [None];
+        run_together(ctx.field, &mut [task], &pool, &mut st);
+        st[0].unwrap_or_default()
     };
     sc.pool = pool.into_inner();
     st
@@ -293,10 +293,11 @@ pub(crate) unsafe fn render_columns_direct(
             Box::pin(unsafe { column_task(ctx, j as f64, c, sc, directs.get(k), &pool) })
         })
         .collect();
-    let sts = run_together_vec(ctx.field, &mut tasks, &pool);
+    let mut sts = vec![None; tasks.len()];
+    run_together(ctx.field, &mut tasks, &pool, &mut sts);
     drop(tasks);
     let mut total = ColumnStats::default();
-    for st in &sts {
+    for st in sts.iter().flatten() {
         total.add(st);
     }
     for (sc, c) in scs.iter_mut().zip(centres) {
@@ -336,60 +337,29 @@ impl std::future::Future for Yield {
 }
 
 /// Run column tasks to the end: poll each, evaluate the points they ask
-/// for in one batch, and again, until all are done.
-fn run_together<F: std::future::Future<Output = ColumnStats>, const N: usize>(
+/// for in one batch, and again, until all are done; task k's result goes
+/// to `done[k]` (which starts as `None`).
+fn run_together<P>(
     field: &dyn HeightField,
-    tasks: &mut [std::pin::Pin<&mut F>; N],
+    tasks: &mut [std::pin::Pin<P>],
     pool: &RefCell<Pool>,
-) -> [ColumnStats; N] {
-    let mut done: [Option<ColumnStats>; N] = [None; N];
-    drive(field, pool, N, |k, cx| {
-        if done[k].is_some() {
-            return true;
-        }
-        if let std::task::Poll::Ready(st) = tasks[k].as_mut().poll(cx) {
-            done[k] = Some(st);
-        }
-        done[k].is_some()
-    });
-    done.map(|d| d.unwrap_or_default())
-}
-
-/// [`run_together`] for boxed tasks.
-fn run_together_vec<F: std::future::Future<Output = ColumnStats>>(
-    field: &dyn HeightField,
-    tasks: &mut [std::pin::Pin<Box<F>>],
-    pool: &RefCell<Pool>,
-) -> Vec<ColumnStats> {
-    let n = tasks.len();
-    let mut done: Vec<Option<ColumnStats>> = vec![None; n];
-    drive(field, pool, n, |k, cx| {
-        if done[k].is_some() {
-            return true;
-        }
-        if let std::task::Poll::Ready(st) = tasks[k].as_mut().poll(cx) {
-            done[k] = Some(st);
-        }
-        done[k].is_some()
-    });
-    done.into_iter().map(|d| d.unwrap_or_default()).collect()
-}
-
-/// The rounds of [`run_together`]: `poll(k, cx)` polls task k and tells
-/// whether it is done.
-fn drive(
-    field: &dyn HeightField,
-    pool: &RefCell<Pool>,
-    n: usize,
-    mut poll: impl FnMut(usize, &mut std::task::Context<'_>) -> bool,
-) {
+    done: &mut [Option<ColumnStats>],
+) where
+    P: std::ops::DerefMut,
+    P::Target: std::future::Future<Output = ColumnStats>,
+{
     let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
     loop {
-        let mut all = true;
-        for k in 0..n {
-            all &= poll(k, &mut cx);
+        for (task, d) in tasks.iter_mut().zip(done.iter_mut()) {
+            if d.is_none() {
+                if let std::task::Poll::Ready(st) =
+                    std::future::Future::poll(task.as_mut(), &mut cx)
+                {
+                    *d = Some(st);
+                }
+            }
         }
-        if all {
+        if done.iter().all(Option::is_some) {
             return;
         }
         let mut p = pool.borrow_mut();

@@ -305,8 +305,11 @@ impl<'a> Sampler<'a> {
     /// Samples at every t of `ts` with one batched evaluation, for columns
     /// whose plane is vertical (κ = 0: every sample is one evaluation, so
     /// the batch gives exactly what [`Self::sample`] gives point by point).
-    /// Points outside the domain are `None` and not evaluated.
-    pub fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
+    /// Points outside the domain are `None` and not evaluated. (The sweeps
+    /// call its two halves, batching the evaluations of several columns;
+    /// the tests check the whole against [`Self::sample`].)
+    #[cfg(test)]
+    pub(crate) fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
         self.points_many(ts, scratch);
         scratch.hs.resize(scratch.u.len(), HeightSample::default());
         self.field

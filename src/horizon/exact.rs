@@ -190,16 +190,21 @@ fn orient_exact(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> i32 {
 mod tests {
     use super::*;
 
-    #[test]
-    fn exact_on_integers_and_near_collinear() {
-        // Integer coordinates: compare with i128 arithmetic.
-        let mut s = 12345u64;
-        let mut rnd = || {
+    /// Xorshift64 from `seed`.
+    fn xorshift(mut s: u64) -> impl FnMut() -> u64 {
+        move || {
             s ^= s << 13;
             s ^= s >> 7;
             s ^= s << 17;
-            (s % 2001) as i64 - 1000
-        };
+            s
+        }
+    }
+
+    #[test]
+    fn exact_on_integers_and_near_collinear() {
+        // Integer coordinates: compare with i128 arithmetic.
+        let mut next = xorshift(12345);
+        let mut rnd = || (next() % 2001) as i64 - 1000;
         for _ in 0..20000 {
             let p: Vec<i64> = (0..6).map(|_| rnd()).collect();
             let d = (p[0] - p[4]) as i128 * (p[3] - p[5]) as i128
@@ -226,13 +231,8 @@ mod tests {
         assert_eq!(orient((0.1, 0.3), (0.2, 0.3), (0.7, 0.3)), 0);
         // The filter agrees with the exact expansion on nearly collinear
         // real triples of every sign pattern.
-        let mut u = 99u64;
-        let mut unit = || {
-            u ^= u << 13;
-            u ^= u >> 7;
-            u ^= u << 17;
-            (u >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut next = xorshift(99);
+        let mut unit = || (next() >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
         for _ in 0..20000 {
             let (x0, y0, dx, dy) = (unit() * 1e3, unit() * 1e3, unit(), unit());
             let (t1, t2) = (unit() * 7.0, unit() * 7.0);
@@ -248,13 +248,8 @@ mod tests {
 
     #[test]
     fn box_filter_decides_only_the_exact_sign() {
-        let mut u = 7u64;
-        let mut unit = || {
-            u ^= u << 13;
-            u ^= u >> 7;
-            u ^= u << 17;
-            (u >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = xorshift(7);
+        let mut unit = || (next() >> 11) as f64 / (1u64 << 53) as f64;
         let (mut by_box, mut total) = (0, 0);
         for case in 0..4000 {
             // a box, and triples inside it: random, nearly collinear (a

@@ -512,7 +512,11 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                             let mut pop = _mm256_cmp_pd::<_CMP_GE_OQ>(lhs, rhs);
                             // an opaque mask: used as it is by the blends and the
                             // length update (not rebuilt from a vector of booleans)
-                            std::arch::asm!("/* {0} */", inout(ymm_reg) pop, options(pure, nomem, nostack));
+                            std::arch::asm!(
+                                "/* {0} */",
+                                inout(ymm_reg) pop,
+                                options(pure, nomem, nostack)
+                            );
                             if _mm256_testz_pd(pop, pop) != 0 {
                                 break;
                             }
@@ -608,7 +612,8 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
 /// so its distance along r is w = (u·wstep + sh(u)·wperp) + l·wperp: the
 /// first term is the same for every line of a direction and is tabulated
 /// once; the line's constant l·wperp is left out without curvature (the
-/// slopes only see differences of w along one line).
+/// slopes only see differences of w along one line). `finite`: every
+/// height is finite (the 4-lane walk then skips its finiteness test).
 #[allow(clippy::too_many_arguments)]
 fn lines_blocked(
     z: &[f64],
@@ -628,7 +633,7 @@ fn lines_blocked(
     #[cfg(target_arch = "x86_64")]
     let simd = simd && std::arch::is_x86_feature_detected!("avx2");
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = simd;
+    let _ = (simd, finite);
     let (nsteps, nperp) = if along_cols {
         (cols, rows as i64)
     } else {
