@@ -309,9 +309,12 @@ fn ortho_column(
     let (h, w) = (ctx.cam.height, ctx.cam.width);
     let (shading, aa, cov) = (ctx.shading, ctx.opts.antialias, ctx.opts.coverage);
     let mut st = ColumnStats::default();
-    // The pixels are left unset after each column (below).
+    // A plain render leaves its pixels unset after each column (below) and
+    // reads only those it sets; supersampled and coverage renders also read
+    // the `cover` of unset pixels, so they start from cleared pixels (the
+    // buffer may come from a plain render's column).
     let mut centre = std::mem::take(&mut sc.centre);
-    if centre.len() != h {
+    if centre.len() != h || shade_aa || cov {
         centre.clear();
         centre.resize(h, Pixel::default());
     }

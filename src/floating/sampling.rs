@@ -309,7 +309,12 @@ impl<'a> Sampler<'a> {
     /// call its two halves, batching the evaluations of several columns;
     /// the tests check the whole against [`Self::sample`].)
     #[cfg(test)]
-    pub(crate) fn sample_many(&mut self, ts: &[f64], out: &mut Vec<Option<Raw>>, scratch: &mut Scratch) {
+    pub(crate) fn sample_many(
+        &mut self,
+        ts: &[f64],
+        out: &mut Vec<Option<Raw>>,
+        scratch: &mut Scratch,
+    ) {
         self.points_many(ts, scratch);
         scratch.hs.resize(scratch.u.len(), HeightSample::default());
         self.field

@@ -565,3 +565,88 @@ fn grouped_columns_equal_single_columns() {
     }
     assert!(seen > w * h / 4, "too little surface seen: {seen}");
 }
+
+/// A worker keeps its column buffers from render to render: the pixels a
+/// plain render leaves behind (all interpolated, `refine` off) must not leak
+/// into a coverage or supersampled column rendered next with the same
+/// buffers. Each column is rendered after a plain render of a column 1, 5
+/// or 11 places on, and must equal the column rendered with fresh buffers.
+#[test]
+fn column_buffers_carry_nothing_between_renders() {
+    let d = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+    let f = crate::source::ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, d).unwrap();
+    let (w, h) = (24, 37);
+    let cam = Camera::new(&ortho(30.0, 30.0, 13.0), w, h).unwrap();
+    let sh = Shading::default();
+    let outs =
+        Outputs::from_names(&["rgb", "intensity", "depth", "normal", "side", "mask"]).unwrap();
+    let plain = FloatingOptions {
+        refine: false,
+        ..Default::default()
+    };
+    fn ctx_of<'a>(
+        cam: &'a Camera,
+        f: &'a dyn HeightField,
+        sh: &'a Shading,
+        opts: &'a FloatingOptions,
+    ) -> Ctx<'a> {
+        Ctx {
+            cam,
+            frame: sampling::Frame::new(cam, f.domain()),
+            field: f,
+            shading: sh,
+            opts,
+            refine: opts.refine,
+            fallback: true,
+        }
+    }
+    let ctx_plain = ctx_of(&cam, &f, &sh, &plain);
+    for opts in [
+        FloatingOptions {
+            coverage: true,
+            ..Default::default()
+        },
+        FloatingOptions {
+            antialias: 3,
+            ..Default::default()
+        },
+    ] {
+        let ctx = ctx_of(&cam, &f, &sh, &opts);
+        let shade_aa = opts.antialias > 1;
+        let mut want = Buffers::new(w, h, &outs, sh.background);
+        {
+            let out = SharedOut::new(&mut want, &sh);
+            for j in 0..w {
+                let mut sc = column::ColumnScratch::default();
+                ortho_column(&ctx, j, &mut sc, &out, shade_aa, true);
+            }
+        }
+        for k in [1, 5, 11] {
+            let mut got = Buffers::new(w, h, &outs, sh.background);
+            let mut waste = Buffers::new(w, h, &outs, sh.background);
+            let mut sc = column::ColumnScratch::default();
+            {
+                let out = SharedOut::new(&mut got, &sh);
+                let junk = SharedOut::new(&mut waste, &sh);
+                for j in 0..w {
+                    ortho_column(&ctx_plain, (j + k) % w, &mut sc, &junk, false, true);
+                    ortho_column(&ctx, j, &mut sc, &out, shade_aa, true);
+                }
+            }
+            let what = if shade_aa { "antialias" } else { "coverage" };
+            assert_eq!(got.rgb, want.rgb, "{what}, plain column {k} on: rgb");
+            assert_eq!(got.side, want.side, "{what}, plain column {k} on: side");
+            assert_eq!(got.mask, want.mask, "{what}, plain column {k} on: mask");
+            for (name, g, wv) in [
+                ("intensity", &got.intensity, &want.intensity),
+                ("depth", &got.depth, &want.depth),
+                ("normal", &got.normal, &want.normal),
+            ] {
+                let bits = |v: &Option<Vec<f32>>| -> Vec<u32> {
+                    v.as_ref().unwrap().iter().map(|x| x.to_bits()).collect()
+                };
+                assert_eq!(bits(g), bits(wv), "{what}, plain column {k} on: {name}");
+            }
+        }
+    }
+}
