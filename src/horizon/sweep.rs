@@ -10,9 +10,10 @@
 //! elevation of the cells ahead of it on its line. Walking the line from its
 //! far end keeps the upper convex hull of the profile ahead as a stack: a new
 //! cell pops the vertices under its tangent and the top is its horizon
-//! point, O(1) amortised per cell. Elevations go through a fast arctangent
-//! accurate to a few 1e-8 rad (the output is float32), taken in a separate
-//! pass over the slopes (rounded to float32 meanwhile: at most 3e-8 rad).
+//! point, O(1) amortised per cell. The slopes are rounded to float32 (the
+//! output's type: at most 3e-8 rad once turned into an angle) and turned
+//! into elevations by a float32 arctangent ([`atan_f32`], at most 1.12e-7
+//! rad off) in a separate pass over the plane, eight values per vector.
 //!
 //! The lines are walked a block of neighbours at a time, a few steps of one
 //! line before the same steps of the next (16 when the lines run along the
@@ -35,36 +36,27 @@ use super::{Frame, Options, Progress, Terrain, EMPTY};
 use crate::cancel::Cancel;
 use crate::error::Result;
 
-/// atan(x) to about 1e-7 relative (Cephes `atanf` reduction and polynomial,
-/// in f64).
-#[inline]
-pub fn fast_atan(x: f64) -> f64 {
-    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
-    let (sgn, a) = if x < 0.0 { (-1.0, -x) } else { (1.0, x) };
-    let (base, t) = if a > 2.414213562373095 {
-        (FRAC_PI_2, -1.0 / a)
-    } else if a > 0.414_213_562_373_095 {
-        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
-    } else {
-        (0.0, a)
-    };
-    let z = t * t;
-    let p = (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z
-        - 3.33329491539e-1)
-        * z
-        * t
-        + t;
-    sgn * (base + p)
-}
+/// tan(3π/8) and tan(π/8), the reduction's thresholds.
+const TAN_3PI_8: f32 = 2.414_213_7;
+const TAN_PI_8: f32 = 0.414_213_57;
+/// π/2 − `FRAC_PI_2` (the float32 π/2 is 4.4e-8 too high).
+const PI_2_LO: f32 = -4.371_139e-8;
 
-/// [`fast_atan`] without branches (selects only), so that a loop over a
-/// slice of slopes vectorises; same reduction and polynomial.
-#[inline]
-pub fn atan_select(x: f64) -> f64 {
-    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+/// atan(x) in float32 (Cephes `atanf`: reduction to |t| ≤ tan(π/8) by
+/// atan x = π/4 + atan((x − 1)/(x + 1)) or π/2 + atan(−1/x), then an odd
+/// degree-9 polynomial), with the low part of π/2 (or π/4) added before its
+/// high part. Branch-free (selects only) and without FMA, so that a loop
+/// over a slice vectorises to the same values on any CPU. Measured against
+/// the f64 `atan` over every float32 x: at most 1.12e-7 rad off (2.34 ulps
+/// of the result at worst, near x = 0.4144; 99.5 % of the values are the
+/// correctly rounded ones, none is 3 ulps away); ±∞ gives ±π/2 (the f32
+/// nearest, so −∞ gives [`EMPTY`]), ±0 itself, NaN stays NaN.
+#[inline(always)]
+pub fn atan_f32(x: f32) -> f32 {
+    use std::f32::consts::FRAC_PI_2;
     let a = x.abs();
-    let big = a > 2.414213562373095;
-    let mid = a > 0.414_213_562_373_095;
+    let big = a > TAN_3PI_8;
+    let mid = a > TAN_PI_8;
     let num = if big {
         -1.0
     } else if mid {
@@ -79,27 +71,24 @@ pub fn atan_select(x: f64) -> f64 {
     } else {
         1.0
     };
-    let base = if big {
-        FRAC_PI_2
+    let (hi, lo) = if big {
+        (FRAC_PI_2, PI_2_LO)
     } else if mid {
-        FRAC_PI_4
+        (0.5 * FRAC_PI_2, 0.5 * PI_2_LO)
     } else {
-        0.0
+        (0.0, 0.0)
     };
     let t = num / den;
     let z = t * t;
-    let p = (((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z
-        - 3.33329491539e-1)
-        * z
-        * t
-        + t;
-    (base + p).copysign(x)
+    let p =
+        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_294_9e-1) * z * t;
+    (hi + ((t + p) + lo)).copysign(x)
 }
 
 /// Replace slopes by their elevation angles (−∞ gives −π/2, NaN stays).
 /// The same operations in the same order whatever the vector width, so the
 /// result does not depend on the CPU.
-fn slopes_to_angles(out: &mut [f32]) {
+pub(super) fn slopes_to_angles(out: &mut [f32]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU has AVX (checked just above).
@@ -112,14 +101,15 @@ fn slopes_to_angles(out: &mut [f32]) {
 #[inline(always)]
 fn slopes_to_angles_plain(out: &mut [f32]) {
     for v in out.iter_mut() {
-        *v = atan_select(*v as f64) as f32;
+        *v = atan_f32(*v);
     }
 }
 
-/// [`slopes_to_angles_plain`] compiled for 4-wide f64 vectors (no FMA: the
+/// [`slopes_to_angles_plain`] compiled for 8-wide f32 vectors (AVX) (no FMA: the
 /// values are bit-identical to the plain pass).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
+#[inline(never)]
 unsafe fn slopes_to_angles_avx(out: &mut [f32]) {
     slopes_to_angles_plain(out);
 }
@@ -797,7 +787,7 @@ fn lines(
                     }
                 }
                 out[q] = match best {
-                    Some(s) => fast_atan(s + 2.0 * c * w) as f32,
+                    Some(s) => atan_f32((s + 2.0 * c * w) as f32),
                     None => EMPTY,
                 };
                 seen.push((w, zz));
@@ -813,7 +803,7 @@ fn lines(
                 }
             }
             out[q] = match stack.last() {
-                Some(&(tw, tz)) => fast_atan((tz - zz) / (tw - w) + 2.0 * c * w) as f32,
+                Some(&(tw, tz)) => atan_f32(((tz - zz) / (tw - w) + 2.0 * c * w) as f32),
                 None => EMPTY,
             };
             stack.push((w, zz));

@@ -232,16 +232,69 @@ fn sweep_lanes_equal_one_line_walk() {
     }
 }
 
-#[test]
-fn fast_atan_accuracy() {
-    assert_eq!(sweep::atan_select(f64::NEG_INFINITY) as f32, EMPTY);
-    assert!(sweep::atan_select(f64::NAN).is_nan());
-    let mut x = -50.0;
-    while x < 50.0 {
-        assert!((sweep::fast_atan(x) - x.atan()).abs() < 2e-7, "{x}");
-        assert_eq!(sweep::atan_select(x), sweep::fast_atan(x), "{x}");
-        x += 0.0137;
+/// Largest error of `sweep::atan_f32` against the f64 arctangent over the
+/// float32 values `bits`, in radians and in ulps of the result.
+fn atan_f32_error(bits: impl Iterator<Item = u32>) -> (f64, f64) {
+    let (mut rad, mut ulps) = (0.0f64, 0.0f64);
+    for b in bits {
+        let x = f32::from_bits(b);
+        let got = sweep::atan_f32(x);
+        if x.is_nan() {
+            assert!(got.is_nan());
+            continue;
+        }
+        let want = (x as f64).atan();
+        let e = (got as f64 - want).abs();
+        let w = (want as f32).abs();
+        let ulp = if w == 0.0 {
+            f32::from_bits(1)
+        } else {
+            f32::from_bits(w.to_bits() + 1) - w
+        };
+        rad = rad.max(e);
+        ulps = ulps.max(e / ulp as f64);
     }
+    (rad, ulps)
+}
+
+#[test]
+fn atan_f32_accuracy() {
+    use std::f32::consts::FRAC_PI_2;
+    assert_eq!(sweep::atan_f32(f32::NEG_INFINITY), EMPTY);
+    assert_eq!(sweep::atan_f32(f32::INFINITY), FRAC_PI_2);
+    assert_eq!(sweep::atan_f32(f32::MAX), FRAC_PI_2);
+    assert_eq!(sweep::atan_f32(-f32::MAX), -FRAC_PI_2);
+    assert!(sweep::atan_f32(f32::NAN).is_nan());
+    assert_eq!(sweep::atan_f32(0.0).to_bits(), 0.0f32.to_bits());
+    assert_eq!(sweep::atan_f32(-0.0).to_bits(), (-0.0f32).to_bits());
+    let d = f32::from_bits(3); // a denormal: atan x = x
+    assert_eq!(sweep::atan_f32(d), d);
+    assert_eq!(sweep::atan_f32(-d), -d);
+    // one float32 in 4099, all signs and exponents (the whole range is
+    // checked by `atan_f32_accuracy_everywhere`); the documented bounds
+    let (rad, ulps) = atan_f32_error((0..=u32::MAX).step_by(4099));
+    assert!(rad <= 1.12e-7 && ulps <= 2.34, "{rad:e} rad, {ulps} ulps");
+    // the vector pass gives the scalar function's values bit for bit
+    let mut v: Vec<f32> = (0..=u32::MAX).step_by(4099).map(f32::from_bits).collect();
+    v.extend([
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1.0,
+        -1.0,
+        2.414_213_7,
+        0.414_213_57,
+    ]);
+    let want: Vec<f32> = v.iter().map(|&x| sweep::atan_f32(x)).collect();
+    sweep::slopes_to_angles(&mut v);
+    assert!(same_bits(&v, &want));
+}
+
+/// Every float32 (slow unoptimised: `cargo test --release -- --ignored`).
+#[test]
+#[ignore]
+fn atan_f32_accuracy_everywhere() {
+    let (rad, ulps) = atan_f32_error(0..=u32::MAX);
+    assert!(rad <= 1.12e-7 && ulps <= 2.34, "{rad:e} rad, {ulps} ulps");
 }
 
 #[test]
