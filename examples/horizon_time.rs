@@ -4,8 +4,16 @@
 //! `SUBSET=k` computes only k sectors spread evenly over the s;
 //! `SECTORS=i,j,..` exactly those sectors. CPU time is reported beside the
 //! wall time (the figure to compare on a shared machine).
+//!
+//! `REPEAT=n`: after the first call (which allocates its output, as
+//! `fcol.horizon_map` does), the same map computed n more times into that
+//! output with `compute_into` (a reused buffer, as with `out=`: no page to
+//! fault in); a second line gives the median and the fastest of those n
+//! runs. The checksum is the first call's; the repeats are checked equal to
+//! it bit for bit. `DUMP=path` writes the first call's values to `path`
+//! (raw little-endian float32, plane-major) for comparing maps.
 
-use _fcol::horizon::{compute, Method, Options, Progress, Terrain};
+use _fcol::horizon::{compute, compute_into, Method, Options, Progress, Terrain};
 use _fcol::Cancel;
 use std::time::Instant;
 
@@ -84,10 +92,40 @@ fn main() {
     let dt = t0.elapsed().as_secs_f64();
     let dc = cpu_seconds() - c0;
     let sum: f64 = out.iter().map(|&v| v as f64).sum();
+    let per = 1e9 / (side * side * k.min(s)) as f64;
     println!(
         "side {side} s {s} {m:?}: {dt:.3} s wall, {dc:.3} s CPU, {:.1} ns/point-dir wall, \
          {:.1} ns/point-dir CPU, checksum {sum:.6}",
-        dt * 1e9 / (side * side * k.min(s)) as f64,
-        dc * 1e9 / (side * side * k.min(s)) as f64
+        dt * per,
+        dc * per
     );
+    if let Ok(path) = std::env::var("DUMP") {
+        let bytes: Vec<u8> = out.iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(path, bytes).unwrap();
+    }
+    let repeat: usize = std::env::var("REPEAT").map_or(0, |v| v.parse().unwrap());
+    if repeat > 0 {
+        let mut buf = out.clone();
+        let (mut walls, mut cpus) = (vec![], vec![]);
+        for _ in 0..repeat {
+            let t0 = Instant::now();
+            let c0 = cpu_seconds();
+            compute_into(&t, &o, &Cancel::new(), &Progress::default(), &mut buf).unwrap();
+            walls.push(t0.elapsed().as_secs_f64() * per);
+            cpus.push((cpu_seconds() - c0) * per);
+            assert!(buf
+                .iter()
+                .zip(&out)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        let med = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            (v[v.len() / 2], v[0])
+        };
+        let ((mw, fw), (mc, fc)) = (med(&mut walls), med(&mut cpus));
+        println!(
+            "  reused output, {repeat} runs: {mw:.1} ns/point-dir wall (fastest {fw:.1}), \
+             {mc:.1} ns/point-dir CPU (fastest {fc:.1})"
+        );
+    }
 }

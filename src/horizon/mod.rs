@@ -482,17 +482,43 @@ pub fn validate(t: &Terrain, o: &Options) -> Result<()> {
 /// Compute the horizon map: `k` planes (one per requested sector) of
 /// `t.len()` values each, plane-major.
 pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -> Result<Vec<f32>> {
+    validate(t, o)?;
+    let mut out = vec![0.0f32; o.sector_list().len() * t.len()];
+    compute_into(t, o, cancel, progress, &mut out)?;
+    Ok(out)
+}
+
+/// [`compute`] into `out` (`k · t.len()` values, any contents: every value
+/// is written), e.g. a buffer reused over many calls, whose pages are then
+/// already in memory.
+pub fn compute_into(
+    t: &Terrain,
+    o: &Options,
+    cancel: &Cancel,
+    progress: &Progress,
+    out: &mut [f32],
+) -> Result<()> {
     use rayon::prelude::*;
     validate(t, o)?;
     let list = o.sector_list();
     let n = t.len();
+    if out.len() != list.len() * n {
+        return Err(FcolError::value(
+            "out",
+            format!(
+                "holds {} values, expected {} ({} sectors of {n} points)",
+                out.len(),
+                list.len() * n,
+                list.len()
+            ),
+        ));
+    }
     progress.total.store(list.len() * n, Ordering::Relaxed);
-    let mut out = vec![0.0f32; list.len() * n];
     if n == 0 {
-        return Ok(out);
+        return Ok(());
     }
     if o.method == Method::Brute {
-        brute::all(t, o, &mut out, cancel, progress)?;
+        brute::all(t, o, out, cancel, progress)?;
         if o.near_vertex {
             out.par_chunks_mut(n)
                 .zip(list.par_iter())
@@ -500,14 +526,15 @@ pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -
                     cms::near_vertex(t, &Frame::new(i, o.sectors), o, plane, cancel)
                 })?;
         }
-        return Ok(out);
+        return Ok(());
     }
     let res =
         out.par_chunks_mut(n)
             .zip(list.par_iter())
             .try_for_each(|(plane, &i)| -> Result<()> {
-                // The planes are fresh memory, each written whole by its
-                // task: faulted in by one call per plane (in parallel).
+                // Each plane is written whole by its task: its pages, fresh
+                // memory unless the caller reuses a buffer, are faulted in
+                // by one call per plane (in parallel).
                 crate::scratch::populate_write(plane);
                 let f = Frame::new(i, o.sectors);
                 match o.method {
@@ -525,8 +552,7 @@ pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -
         rayon::broadcast(|_| stewart::release());
         stewart::release();
     }
-    res?;
-    Ok(out)
+    res
 }
 
 #[cfg(test)]

@@ -559,3 +559,48 @@ fn atan2_f32_is_libm_rounded() {
         check(y, x);
     }
 }
+
+#[test]
+fn compute_into_any_buffer_equals_compute() {
+    // Every value of a reused buffer is written: its old contents (NaN,
+    // values, the previous map) never show through, for every method and
+    // option; a buffer of the wrong length is an error.
+    let mut r = rng(31);
+    let (h, w) = (23, 29);
+    let mut z: Vec<f64> = (0..h * w).map(|_| (r() % 700) as f64 / 60.0).collect();
+    z[5 * w + 7] = f64::NAN;
+    let grid = Terrain::from_grid(z.clone(), h, w, 1.0, -1.5).unwrap();
+    let pts = Terrain::from_points(grid.x.clone(), grid.y.clone(), z).unwrap();
+    let (cn, pr) = (Cancel::new(), Progress::default());
+    for m in [Method::Stewart, Method::Cms, Method::Brute, Method::Sweep] {
+        for (subset, dmax, c, nv) in [
+            (None, None, 0.0, false),
+            (Some(vec![5, 0, 11]), None, 1e-3, false),
+            (None, Some(6.0), 0.0, false),
+            (Some(vec![2, 9]), None, 0.0, true),
+        ] {
+            let mut o = Options::new(12, m);
+            o.subset = subset;
+            o.max_distance = dmax;
+            o.curvature = c;
+            o.near_vertex = nv;
+            for t in [&grid, &pts] {
+                if t.grid.is_none() && (matches!(m, Method::Cms | Method::Sweep) || nv) {
+                    continue;
+                }
+                let want = run(t, &o);
+                let mut buf = vec![f32::NAN; want.len()];
+                for fill in [f32::NAN, 7.5, f32::NEG_INFINITY] {
+                    buf.fill(fill);
+                    compute_into(t, &o, &cn, &pr, &mut buf).unwrap();
+                    assert!(same_bits(&buf, &want), "{m:?} {o:?}");
+                }
+                // again into the finished map
+                compute_into(t, &o, &cn, &pr, &mut buf).unwrap();
+                assert!(same_bits(&buf, &want), "{m:?} {o:?}");
+                let mut short = vec![0.0f32; want.len() - 1];
+                assert!(compute_into(t, &o, &cn, &pr, &mut short).is_err());
+            }
+        }
+    }
+}
