@@ -417,6 +417,63 @@ def test_thread_count_does_not_change_results(tmp_path: "os.PathLike[str]") -> N
     assert one == fcol.horizon_map(z, sectors=16).elevation.tobytes()
 
 
+@pytest.mark.parametrize("method", ["stewart", "cms", "brute", "sweep"])
+def test_out_receives_the_map(method: str) -> None:
+    # Into a given array, bit for bit the allocating call's values, whatever
+    # the array held (NaN, an earlier map); with sectors_subset, max_distance,
+    # curvature and no-data cells too.
+    rng = np.random.default_rng(12)
+    z = rng.random((14, 17)) * 4
+    z[3, 5] = np.nan
+    cases = [
+        dict(sectors=8),
+        dict(sectors=12, sectors_subset=[7, 2, 11], max_distance=5.0),
+        dict(sectors=8, spacing=(1.0, -1.5), earth_curvature=True, refraction=0.1, earth_radius=50.0),
+    ]
+    for kw in cases:
+        want = fcol.horizon_map(z, method=method, **kw).elevation
+        for fill in (np.nan, 9.0):
+            buf = np.full(want.shape, fill, np.float32)
+            hm = fcol.horizon_map(z, method=method, out=buf, **kw)
+            assert hm.elevation is buf
+            assert_bit_equal(buf, want)
+        # the same buffer again, holding the map of other heights
+        fcol.horizon_map(z[::-1].copy(), method=method, out=buf, **kw)
+        assert not np.array_equal(buf, want, equal_nan=True)
+        fcol.horizon_map(z, method=method, out=buf, **kw)
+        assert_bit_equal(buf, want)
+
+
+def test_out_bad_arrays_raise() -> None:
+    z = np.random.default_rng(13).random((6, 7))
+    good = np.zeros((8, 6, 7), np.float32)
+    for bad, exc, what in [
+        ([[[0.0] * 7] * 6] * 8, TypeError, "list"),
+        (np.zeros((8, 6, 7), np.float64), TypeError, "dtype"),
+        (np.zeros((8, 6, 7), np.int32), TypeError, "dtype"),
+        (np.zeros((4, 6, 7), np.float32), ValueError, "shape"),
+        (np.zeros((8, 7, 6), np.float32), ValueError, "shape"),
+        (np.zeros((8, 42), np.float32), ValueError, "shape"),
+        (np.zeros((8, 6, 14), np.float32)[:, :, ::2], ValueError, "C-contiguous"),
+        (np.zeros((7, 6, 8), np.float32).transpose(2, 1, 0), ValueError, "C-contiguous"),
+    ]:
+        with pytest.raises(exc, match=f"out: .*{what}"):
+            fcol.horizon_map(z, sectors=8, out=bad)
+    ro = good.copy()
+    ro.flags.writeable = False
+    with pytest.raises(ValueError, match="out: must be writable"):
+        fcol.horizon_map(z, sectors=8, out=ro)
+    assert (ro == 0).all()
+    # the shape follows sectors_subset
+    with pytest.raises(ValueError, match="out: .*shape"):
+        fcol.horizon_map(z, sectors=8, sectors_subset=[1, 2], out=good)
+    view = good[:2]  # a C-contiguous view will do
+    hm = fcol.horizon_map(z, sectors=8, sectors_subset=[1, 2], out=view)
+    assert hm.elevation is view
+    assert_bit_equal(good[:2], fcol.horizon_map(z, sectors=8, sectors_subset=[1, 2]).elevation)
+    assert (good[2:] == 0).all()
+
+
 # ---------------------------------------------------------------- light (§VI)
 def _uniform_map(e0: float, s: int = 32, shape=(4, 5)) -> hz.HorizonMap:
     el = np.full((s,) + shape, e0, np.float32)

@@ -188,6 +188,7 @@ def horizon_grid(
     curvature: float = 0.0,
     near_vertex: bool = False,
     progress: object | None = None,
+    out: npt.NDArray[np.float32] | None = None,
 ) -> tuple[npt.NDArray[np.float32], float]: ...
 def horizon_points(
     x: npt.NDArray[np.float64],

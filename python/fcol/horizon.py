@@ -381,6 +381,7 @@ def horizon_map(
     earth_radius: float = EARTH_RADIUS,
     near_vertex: bool = False,
     progress: bool | Callable[[int, int], None] | None = None,
+    out: npt.NDArray[np.float32] | None = None,
 ) -> HorizonMap:
     """Horizon of every sample of the height grid ``z`` in ``sectors`` sectors.
 
@@ -418,6 +419,13 @@ def horizon_map(
         sectors may otherwise miss. Off by default (the §III definition).
     progress : None, True or callable(done, total)
         Silent by default; True prints a bar on stderr.
+    out : float32 array (k, H, W), optional
+        Write the elevations into this array instead of a new one (k the
+        number of sectors computed: ``sectors``, or the length of
+        ``sectors_subset``); it must be writable and C-contiguous, and
+        becomes the map's ``elevation``. Reusing one array over many calls
+        (days, parameters) saves allocating and faulting in fresh memory
+        each time. Its old contents are ignored: every value is written.
 
     Returns a :class:`HorizonMap`. Ctrl-C interrupts the computation.
 
@@ -426,6 +434,13 @@ def horizon_map(
     >>> a = fcol.horizon_map(z, sectors=8, method="stewart").elevation
     >>> b = fcol.horizon_map(z, sectors=8, method="brute").elevation
     >>> bool(np.array_equal(a, b))
+    True
+    >>> buf = np.empty((8, 16, 16), dtype=np.float32)
+    >>> hm = fcol.horizon_map(z, sectors=8, method="sweep", out=buf)
+    >>> hm.elevation is buf
+    True
+    >>> hm = fcol.horizon_map(z * 2, sectors=8, method="sweep", out=buf)  # reused
+    >>> bool(np.array_equal(buf, fcol.horizon_map(z * 2, sectors=8, method="sweep").elevation))
     True
     """
     if method not in METHODS:
@@ -450,7 +465,7 @@ def horizon_map(
             raise ValueError("sectors_subset: sector indices must be >= 0")
     if max_distance is not None:
         max_distance = float(max_distance)
-    elev, elapsed = _fcol.horizon_grid(zz, du, dv, int(sectors), method, subset, max_distance, curv, bool(near_vertex), _progress(progress))
+    elev, elapsed = _fcol.horizon_grid(zz, du, dv, int(sectors), method, subset, max_distance, curv, bool(near_vertex), _progress(progress), out)
     idx = subset if subset is not None else list(range(int(sectors)))
     return HorizonMap(elev, idx, int(sectors), zz, (du, dv), method, elapsed)
 

@@ -6,18 +6,21 @@ use crate::error::FcolError;
 use crate::horizon::{self, sky, Method, Options, Progress, Terrain};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
-    IntoPyArray, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
-    PyUntypedArrayMethods,
+    IntoPyArray, PyArray2, PyArray3, PyArrayDescrMethods, PyArrayMethods, PyReadonlyArray1,
+    PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
+/// Compute the map with the GIL released, into `out` when given (its
+/// length checked by the core), else into a new vector (returned).
 fn run_with_progress(
     py: Python<'_>,
     t: &Terrain,
     o: &Options,
     progress: Option<Bound<'_, PyAny>>,
+    out: Option<&mut [f32]>,
 ) -> PyResult<Vec<f32>> {
     horizon::validate(t, o)?;
     let prog = Progress::default();
@@ -33,8 +36,10 @@ fn run_with_progress(
         }
         Ok(())
     };
-    let out =
-        super::run::cancellable_polled(py, poll, |cancel| horizon::compute(t, o, cancel, &prog))?;
+    let out = super::run::cancellable_polled(py, poll, |cancel| match out {
+        Some(buf) => horizon::compute_into(t, o, cancel, &prog, buf).map(|()| Vec::new()),
+        None => horizon::compute(t, o, cancel, &prog),
+    })?;
     if let Some(cb) = &progress {
         let tot = prog.total.load(Ordering::Relaxed);
         cb.call1((tot, tot))?;
@@ -58,10 +63,54 @@ fn options(
     Ok(o)
 }
 
+/// `out` as the (k, H, W) output of a horizon map: a writable C-contiguous
+/// float32 array of that shape (TypeError for another type or dtype,
+/// ValueError for another shape or layout; a read-only array is refused
+/// when borrowed for writing).
+fn output_array<'py>(
+    out: &Bound<'py, PyAny>,
+    shape: [usize; 3],
+) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    use pyo3::exceptions::{PyTypeError, PyValueError};
+    let expected = format!(
+        "a float32 array of shape {:?}",
+        (shape[0], shape[1], shape[2])
+    );
+    let Ok(any) = out.cast::<PyUntypedArray>() else {
+        return Err(PyTypeError::new_err(format!(
+            "out: expected {expected}, got {}",
+            out.get_type().name()?
+        )));
+    };
+    let Ok(arr) = any.cast::<PyArray3<f32>>() else {
+        let dtype = any.dtype();
+        if dtype.is_equiv_to(&numpy::dtype::<f32>(out.py())) {
+            return Err(PyValueError::new_err(format!(
+                "out: expected {expected}, got shape {:?}",
+                any.shape()
+            )));
+        }
+        return Err(PyTypeError::new_err(format!(
+            "out: expected {expected}, got dtype {dtype}"
+        )));
+    };
+    if arr.shape() != shape {
+        return Err(PyValueError::new_err(format!(
+            "out: expected {expected}, got shape {:?}",
+            arr.shape()
+        )));
+    }
+    if !arr.is_c_contiguous() {
+        return Err(PyValueError::new_err("out: must be C-contiguous"));
+    }
+    Ok(arr.clone())
+}
+
 /// Horizon map of a grid z[i, j] at (j·du, i·dv): float32 (k, H, W)
-/// radians for the k requested sectors, and the elapsed seconds.
+/// radians for the k requested sectors (written into `out` when given, and
+/// returned), and the elapsed seconds.
 #[pyfunction]
-#[pyo3(signature = (z, du, dv, sectors, method, subset=None, max_distance=None, curvature=0.0, near_vertex=false, progress=None))]
+#[pyo3(signature = (z, du, dv, sectors, method, subset=None, max_distance=None, curvature=0.0, near_vertex=false, progress=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 fn horizon_grid<'py>(
     py: Python<'py>,
@@ -75,6 +124,7 @@ fn horizon_grid<'py>(
     curvature: f64,
     near_vertex: bool,
     progress: Option<Bound<'py, PyAny>>,
+    out: Option<Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyArray3<f32>>, f64)> {
     let a = z.as_array();
     let (h, w) = (a.shape()[0], a.shape()[1]);
@@ -89,8 +139,28 @@ fn horizon_grid<'py>(
         near_vertex,
     )?;
     let k = o.sector_list().len();
+    if let Some(out) = out {
+        let arr = output_array(&out, [k, h, w])?;
+        let mut rw = arr.try_readwrite().map_err(|e| {
+            FcolError::value(
+                "out",
+                match e {
+                    numpy::BorrowError::NotWriteable => "must be writable (it is read-only)",
+                    _ => "is in use by another call",
+                },
+            )
+        })?;
+        let buf = rw
+            .as_slice_mut()
+            .map_err(|_| FcolError::value("out", "must be C-contiguous"))?;
+        let t0 = Instant::now();
+        run_with_progress(py, &t, &o, progress, Some(buf))?;
+        let el = t0.elapsed().as_secs_f64();
+        drop(rw);
+        return Ok((arr, el));
+    }
     let t0 = Instant::now();
-    let out = run_with_progress(py, &t, &o, progress)?;
+    let out = run_with_progress(py, &t, &o, progress, None)?;
     let el = t0.elapsed().as_secs_f64();
     let arr = Array3::from_shape_vec((k, h, w), out).expect("shape matches");
     Ok((arr.into_pyarray(py), el))
@@ -117,7 +187,7 @@ fn horizon_points<'py>(
     let k = o.sector_list().len();
     let n = t.len();
     let t0 = Instant::now();
-    let out = run_with_progress(py, &t, &o, progress)?;
+    let out = run_with_progress(py, &t, &o, progress, None)?;
     let el = t0.elapsed().as_secs_f64();
     let arr = Array2::from_shape_vec((k, n), out).expect("shape matches");
     Ok((arr.into_pyarray(py), el))
