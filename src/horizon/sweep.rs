@@ -13,7 +13,9 @@
 //! point, O(1) amortised per cell. The slopes are rounded to float32 (the
 //! output's type: at most 3e-8 rad once turned into an angle) and turned
 //! into elevations by a float32 arctangent ([`atan_f32`], at most 1.12e-7
-//! rad off) in a separate pass over the plane, eight values per vector.
+//! rad off), eight values per vector: by the 4-lane walk below as soon as
+//! a run of cells is finished (still in cache), by the one-line walk in a
+//! pass over the plane.
 //!
 //! The lines are walked a block of neighbours at a time, a few steps of one
 //! line before the same steps of the next (16 when the lines run along the
@@ -378,6 +380,8 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
     let mut full = vec![(0usize, 0usize); ng];
     let mut l0 = -smax;
     let mut nb = 0usize;
+    // without `ADJ`: the rows whose elevations are taken
+    let mut rows_done = 0usize;
     while l0 < nperp - smin {
         if nb % (16 / ng).max(1) == 0 {
             cancel.check()?;
@@ -585,11 +589,39 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 }
                 state[gi] = (kb, tw, tz, pw, pz, qw, qz);
             }
+            if ADJ {
+                // The block's cells at these steps are finished: their
+                // elevations now, from the runs of a row just written (in
+                // cache) rather than in a pass over the plane.
+                let lend = l0 + 4 * ngb as i64;
+                for s in steps.get_unchecked(c0..c1) {
+                    let (la, lb) = (l0.max(-s.sh), lend.min(nperp - s.sh));
+                    if la < lb {
+                        slopes_to_angles_plain(std::slice::from_raw_parts_mut(
+                            op.add((s.q0 + la) as usize),
+                            (lb - la) as usize,
+                        ));
+                    }
+                }
+            }
             c0 = c1;
         }
         l0 += 4 * ng as i64;
+        if !ADJ {
+            // Rows whose every line is walked (row i holds a cell of line
+            // i − sh for each shift sh): their elevations while the last
+            // lines' writes may still be in cache.
+            let done = (l0 + smin).clamp(0, nperp) as usize;
+            if done > rows_done {
+                slopes_to_angles_plain(std::slice::from_raw_parts_mut(
+                    op.add(rows_done * sv),
+                    (done - rows_done) * sv,
+                ));
+                rows_done = done;
+            }
+        }
     }
-    slopes_to_angles(out);
+    debug_assert!(ADJ || rows_done == nperp as usize);
     Ok(())
 }
 
