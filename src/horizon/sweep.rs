@@ -143,6 +143,10 @@ const LANE_GROUPS: usize = 64;
 #[cfg(target_arch = "x86_64")]
 const LANE_CHUNK_ROWS: usize = 8;
 
+/// Steps ahead that the 4-lane walk along the rows prefetches its heights.
+#[cfg(target_arch = "x86_64")]
+const PF: usize = 16;
+
 /// A step of the lines of one direction (in walking order).
 #[derive(Clone, Copy)]
 struct Step {
@@ -575,13 +579,32 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 for s in steps.get_unchecked(s0..a) {
                     step!(s, false, false);
                 }
+                // Without `ADJ` the four lanes' cells are rows apart, each
+                // in its own cache line, and along a steep line a new one
+                // nearly every step: the heights `PF` steps ahead are
+                // prefetched while this step waits on its hull.
+                macro_rules! ahead {
+                    ($j:expr) => {
+                        if !ADJ {
+                            let s = steps.get_unchecked(($j + PF).min(steps.len() - 1));
+                            let p = zp.wrapping_offset((s.q0 + ob) as isize);
+                            for i in 0..4 {
+                                _mm_prefetch::<_MM_HINT_T0>(
+                                    p.wrapping_offset(i * svi as isize) as *const i8
+                                );
+                            }
+                        }
+                    };
+                }
                 if finite {
-                    for s in steps.get_unchecked(a..b) {
-                        step!(s, true, true);
+                    for j in a..b {
+                        ahead!(j);
+                        step!(steps.get_unchecked(j), true, true);
                     }
                 } else {
-                    for s in steps.get_unchecked(a..b) {
-                        step!(s, true, false);
+                    for j in a..b {
+                        ahead!(j);
+                        step!(steps.get_unchecked(j), true, false);
                     }
                 }
                 for s in steps.get_unchecked(b..s1) {
