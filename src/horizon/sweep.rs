@@ -143,7 +143,7 @@ const LANE_GROUPS: usize = 64;
 #[cfg(target_arch = "x86_64")]
 const LANE_CHUNK_ROWS: usize = 8;
 
-/// Steps ahead that the 4-lane walk along the rows prefetches its heights.
+/// Steps ahead that the 4-lane walk along the rows prefetches its cells.
 #[cfg(target_arch = "x86_64")]
 const PF: usize = 16;
 
@@ -581,16 +581,21 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
                 }
                 // Without `ADJ` the four lanes' cells are rows apart, each
                 // in its own cache line, and along a steep line a new one
-                // nearly every step: the heights `PF` steps ahead are
-                // prefetched while this step waits on its hull.
+                // nearly every step: the heights and output cells `PF`
+                // steps ahead are prefetched while this step waits on its
+                // hull.
                 macro_rules! ahead {
                     ($j:expr) => {
                         if !ADJ {
                             let s = steps.get_unchecked(($j + PF).min(steps.len() - 1));
                             let p = zp.wrapping_offset((s.q0 + ob) as isize);
+                            let o = op.wrapping_offset((s.q0 + ob) as isize);
                             for i in 0..4 {
                                 _mm_prefetch::<_MM_HINT_T0>(
                                     p.wrapping_offset(i * svi as isize) as *const i8
+                                );
+                                _mm_prefetch::<_MM_HINT_T0>(
+                                    o.wrapping_offset(i * svi as isize) as *const i8
                                 );
                             }
                         }
