@@ -417,6 +417,21 @@ unsafe fn lines_avx2<const CURV: bool, const ADJ: bool>(
         let mut c0 = 0;
         while c0 < steps.len() {
             let c1 = (c0 + chunk).min(steps.len());
+            if ADJ {
+                // the block's row runs of the next chunk (heights, outputs)
+                let lend = l0 + 4 * ngb as i64;
+                for s in steps.get_unchecked(c1..(c1 + chunk).min(steps.len())) {
+                    let (la, lb) = (l0.max(-s.sh), lend.min(nperp - s.sh));
+                    let mut l = la;
+                    while l < lb {
+                        let q = (s.q0 + l) as isize;
+                        _mm_prefetch::<_MM_HINT_T0>(zp.wrapping_offset(q) as *const i8);
+                        _mm_prefetch::<_MM_HINT_T0>(zp.wrapping_offset(q + 8) as *const i8);
+                        _mm_prefetch::<_MM_HINT_T0>(op.wrapping_offset(q) as *const i8);
+                        l += 16;
+                    }
+                }
+            }
             for gi in 0..ngb {
                 let (s0, s1) = (range[gi].0.max(c0), range[gi].1.min(c1));
                 if s0 >= s1 {
