@@ -360,6 +360,9 @@ def test_bad_input() -> None:
         fcol.horizon_map(z, spacing=(0.0, 1.0))
     with pytest.raises(ValueError, match="sectors_subset"):
         fcol.horizon_map(z, sectors=8, sectors_subset=[8])
+    for method in ("stewart", "cms", "brute", "sweep"):
+        with pytest.raises(ValueError, match="sectors_subset: sector 2 is named twice"):
+            fcol.horizon_map(z, sectors=8, method=method, sectors_subset=[2, 5, 2])
     with pytest.raises(ValueError, match="latitude"):
         fcol.horizon_map(z, spacing=1e-3, geographic=True)
     with pytest.raises(TypeError, match="progress"):

@@ -405,7 +405,8 @@ def horizon_map(
         Ignore terrain farther than this (metres; horizontal distance for
         stewart and brute, along the line for cms and sweep).
     sectors_subset : sequence of int, optional
-        Compute only these sectors (e.g. the one where the sun sets).
+        Compute only these sectors (e.g. the one where the sun sets), each
+        named once; the planes of ``elevation`` follow this order.
     geographic : bool
         ``spacing``/``extent`` are in degrees (longitude, latitude); they are
         converted to metres at the grid's latitude (the extent's centre, or

@@ -450,6 +450,18 @@ pub fn validate(t: &Terrain, o: &Options) -> Result<()> {
                 format!("sector {bad} is out of range 0..{}", o.sectors),
             ));
         }
+        // Each requested sector is one output plane; a repeat would be a
+        // second plane of the same sector (and the methods fill a sector's
+        // plane once).
+        let mut seen = vec![false; o.sectors];
+        for &i in sub {
+            if std::mem::replace(&mut seen[i], true) {
+                return Err(FcolError::value(
+                    "sectors_subset",
+                    format!("sector {i} is named twice"),
+                ));
+            }
+        }
     }
     if let Some(d) = o.max_distance {
         if d.is_nan() || d <= 0.0 {
