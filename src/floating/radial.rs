@@ -69,45 +69,7 @@ pub(crate) fn render_radial(
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
-    let e = cam.eye;
-    // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
-    // largest far from the vanishing point of the verticals, on the border.
-    let delta: f64 = 1e-6;
-    let (sd, cd) = delta.sin_cos();
-    let probe = |i: usize, j: usize| -> f64 {
-        let (_, dir) = cam.ray(i as f64, j as f64);
-        if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
-            let d2 = DVec3::new(cd * dir.x - sd * dir.y, sd * dir.x + cd * dir.y, dir.z);
-            let p1 = cam.to_screen(e + dir);
-            let p2 = cam.to_screen(e + d2);
-            let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
-            if ds.is_finite() {
-                return ds;
-            }
-        }
-        1.0
-    };
-    // The border, then every 8th pixel of every 8th row (rows in parallel;
-    // the maximum does not depend on the order).
-    let mut sens: f64 = 1.0;
-    for j in 0..w {
-        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
-    }
-    for i in 0..h {
-        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
-    }
-    let grid = (0..h.div_ceil(8))
-        .into_par_iter()
-        .map(|r| {
-            (0..w)
-                .step_by(8)
-                .map(|j| probe(8 * r, j))
-                .fold(1.0, f64::max)
-        })
-        .reduce(|| 1.0, f64::max);
-    let sens = sens.max(grid);
-    // Bins of width ≤ 1 px laterally at the most sensitive pixel.
-    let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
+    let nb = bin_count(cam);
     let bins = Bins::new(nb);
     // Each bin generates its own rays, row by row (see [`Runs`]): no
     // binning of the whole image, no scatter into bins. Its rays' order is
@@ -172,8 +134,13 @@ pub(crate) fn render_radial(
                         // The sweep's previous rays become the list's buffer.
                         ls.gs.lists[b - g0] = sw.reset(phi, rays);
                         sw.off = off;
-                        let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
+                        let wedge = if runs.exact_only { None } else { runs.wedge(phi) };
+                        let (th0, th1) = wedge.unwrap_or((
+                            sw.rays[0].theta,
+                            sw.rays[sw.rays.len() - 1].theta,
+                        ));
                         sw.ppr = bin_ppr(cam, phi, th0, th1);
+                        sw.srange = (th0, th1);
                         if ctx.opts.coverage {
                             sw.start_coverage();
                         }
@@ -237,6 +204,52 @@ pub(crate) fn render_radial(
         }
     }
     Ok((all, stats))
+}
+
+/// The number of azimuth bins of a perspective view: bins at most a pixel
+/// wide laterally at the most sensitive pixel.
+fn bin_count(cam: &crate::camera::Camera) -> usize {
+    use std::f64::consts::PI;
+    let (w, h) = (cam.width, cam.height);
+    let e = cam.eye;
+    // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
+    // largest far from the vanishing point of the verticals, on the border.
+    let delta: f64 = 1e-6;
+    let (sd, cd) = delta.sin_cos();
+    let probe = |i: usize, j: usize| -> f64 {
+        let (_, dir) = cam.ray(i as f64, j as f64);
+        if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
+            let d2 = DVec3::new(cd * dir.x - sd * dir.y, sd * dir.x + cd * dir.y, dir.z);
+            let p1 = cam.to_screen(e + dir);
+            let p2 = cam.to_screen(e + d2);
+            let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
+            if ds.is_finite() {
+                return ds;
+            }
+        }
+        1.0
+    };
+    // The border, then every 8th pixel of every 8th row (rows in parallel;
+    // the maximum does not depend on the order).
+    let mut sens: f64 = 1.0;
+    for j in 0..w {
+        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
+    }
+    for i in 0..h {
+        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
+    }
+    let grid = (0..h.div_ceil(8))
+        .into_par_iter()
+        .map(|r| {
+            (0..w)
+                .step_by(8)
+                .map(|j| probe(8 * r, j))
+                .fold(1.0, f64::max)
+        })
+        .reduce(|| 1.0, f64::max);
+    let sens = sens.max(grid);
+    // Bins of width ≤ 1 px laterally at the most sensitive pixel.
+    ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24)
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
@@ -435,6 +448,8 @@ struct Runs<'b> {
     /// Whether the vanishing point of the verticals is near the image
     /// (every bin may reach it).
     vp_near: bool,
+    /// That vanishing point (screen x, y), if finite.
+    vp: Option<DVec2>,
 }
 
 /// Columns [lo, hi) of a row: [0, hi), [lo, w), or empty (lo ≥ hi).
@@ -454,13 +469,14 @@ impl<'b> Runs<'b> {
         // vertical (its horizontal part zero), at infinity when no finite x,
         // y solve it (d horizontal).
         let det = r.x * up.y - r.y * up.x;
-        let vp_near = if det.abs() > 1e-12 {
+        let vp = if det.abs() > 1e-12 {
             let x = (-fd.x * up.y + fd.y * up.x) / det;
             let y = (-r.x * fd.y + r.y * fd.x) / det;
-            !(x.abs() > half_w + 4.0 || y.abs() > half_h + 4.0)
+            (x.is_finite() && y.is_finite()).then_some(DVec2::new(x, y))
         } else {
-            false
+            None
         };
+        let vp_near = vp.is_some_and(|v| !(v.x.abs() > half_w + 4.0 || v.y.abs() > half_h + 4.0));
         Runs {
             bins,
             w,
@@ -473,7 +489,63 @@ impl<'b> Runs<'b> {
             tol: 1e-9 * size,
             exact_only: bins.n < 8 || !size.is_finite(),
             vp_near,
+            vp,
         }
+    }
+
+    /// The pseudo-elevations (see [`elevation`]) that the vertical plane of
+    /// azimuth φ reaches on the image, widened by two pixels on every side
+    /// (the pixels of a bin, at most about a pixel wide, lie within them):
+    /// its screen line L = 0 (see [`Runs`]) clipped to that rectangle, on the
+    /// side where the plane's rays point along φ, and the vanishing point of
+    /// the verticals (θ = ±π/2) when it lies inside. None: the plane misses
+    /// the image.
+    fn wedge(&self, phi: f64) -> Option<(f64, f64)> {
+        let (fd, r, up) = (self.fd, self.r, self.up);
+        let (sp, cp) = phi.sin_cos();
+        let c = DVec2::new(cp, sp);
+        let a = c.x * fd.y - c.y * fd.x;
+        let q = c.x * r.y - c.y * r.x;
+        let p = c.x * up.y - c.y * up.x;
+        let (x0, x1) = (self.c0 - 2.0, self.c0 + self.w as f64 + 1.0);
+        let (y0, y1) = (self.y(self.h - 1) - 2.0, self.y(0) + 2.0);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut take = |x: f64, y: f64| {
+            let v = fd + x * r + y * up;
+            if c.x * v.x + c.y * v.y > 0.0 {
+                let s = elevation(v.z, (v.x * v.x + v.y * v.y).sqrt());
+                lo = lo.min(s);
+                hi = hi.max(s);
+            }
+        };
+        if p != 0.0 {
+            for x in [x0, x1] {
+                let y = -(a + q * x) / p;
+                if y >= y0 && y <= y1 {
+                    take(x, y);
+                }
+            }
+        }
+        if q != 0.0 {
+            for y in [y0, y1] {
+                let x = -(a + p * y) / q;
+                if x >= x0 && x <= x1 {
+                    take(x, y);
+                }
+            }
+        }
+        if let Some(v) = self.vp {
+            if v.x >= x0 && v.x <= x1 && v.y >= y0 && v.y <= y1 {
+                let vz = fd.z + v.x * r.z + v.y * up.z;
+                let s = if vz >= 0.0 { 1.0 } else { -1.0 };
+                lo = lo.min(s);
+                hi = hi.max(s);
+            }
+        }
+        if !(a.is_finite() && p.is_finite() && q.is_finite()) || (p == 0.0 && q == 0.0) {
+            return Some((-1.0, 1.0));
+        }
+        (lo <= hi).then_some((lo, hi))
     }
 
     /// The screen y of row i (as [`crate::camera::Camera::pixel_to_screen`]).
@@ -1111,6 +1183,9 @@ struct RadialSweep<'c, 'a> {
     failed: Vec<u32>,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
+    /// Pseudo-elevations of the bin's wedge (see [`Runs::wedge`]): its rays
+    /// lie within them.
+    srange: (f64, f64),
     ahead: Ahead,
     /// Where the last span's rays started (in `rays`).
     cursor: usize,
@@ -1143,6 +1218,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             solver: Default::default(),
             failed: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
+            srange: (-1.0, 1.0),
             ahead: Ahead::default(),
             cursor: 0,
             off: (0.0, 0.0),
@@ -1169,6 +1245,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.stats = ColumnStats::default();
         self.jobs.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
+        self.srange = (-1.0, 1.0);
         // (A new sweep's look-ahead, its buffers kept.)
         self.ahead.reset();
         self.cursor = 0;
@@ -1410,7 +1487,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let ppr = self.ppr;
         self.rows.clear();
         self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
-        (st.th_lo, st.th_hi) = (self.rows[0], self.rows[self.rows.len() - 1]);
+        (st.th_lo, st.th_hi) = (self.srange.0 * ppr, self.srange.1 * ppr);
         // Domain clip of the half-line E_h + ρ·e_h, ρ ≥ 0.
         let d = ctx.frame.domain;
         let (mut r0, mut r1) = (0.0f64, f64::INFINITY);
@@ -1904,6 +1981,7 @@ mod tests {
     /// in the image, the vanishing point inside it, bins wide and narrow.
     #[test]
     fn bin_runs_are_the_bins_of_the_rays() {
+        let mut wedges_checked = 0;
         for (el, az, w, h, nb) in [
             (30.0, 40.0, 37, 23, 1000),
             (30.0, 40.0, 64, 48, 100_000),
@@ -1938,6 +2016,16 @@ mod tests {
                     runs.group_rays(g0, g1, &mut gs);
                     for b in g0..g1 {
                         let rays = &gs.lists[b - g0];
+                        if !rays.is_empty() && nb >= bin_count(&cam) {
+                            wedges_checked += 1;
+                            // The bin's wedge holds its rays' elevations.
+                            let phi = -std::f64::consts::PI
+                                + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
+                            let (lo, hi) = runs.wedge(phi).expect("a bin with rays meets the image");
+                            for r in rays {
+                                assert!(r.theta >= lo && r.theta <= hi, "view ({el}, {az}) nb {nb} bin {b} ray {} theta {} wedge {lo} {hi}", r.k, r.theta);
+                            }
+                        }
                         for ray in rays {
                             let k = ray.k as usize;
                             assert_eq!(seen[k], usize::MAX, "pixel {k} twice");
@@ -1960,5 +2048,6 @@ mod tests {
                 }
             }
         }
+        assert!(wedges_checked > 1000);
     }
 }
