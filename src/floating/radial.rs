@@ -91,6 +91,10 @@ pub(crate) fn render_radial(
         depth: depth.as_mut_ptr(),
     };
     let groups = runs.groups(&cands);
+    // Without coverage, each bin is swept before its rays are generated,
+    // and only the rays up to the highest elevation the sweep covered are
+    // (those above it see no surface).
+    let two_pass = !ctx.opts.coverage && !runs.exact_only;
     // The sweeps and ray buffers of each worker thread, kept from group to
     // group (rayon's per-task `map_init` would start each task afresh,
     // regrowing every buffer); a slot found busy (a task nested in another
@@ -112,7 +116,10 @@ pub(crate) fn render_radial(
             };
             (|| -> Result<Vec<BinResult>> {
                 cancel.check()?;
-                runs.group_rays(g0, g1, &mut ls.gs);
+                if two_pass {
+                    return two_pass_group(ctx, &runs, g0, g1, nb, off, direct, &marks, ls, cancel);
+                }
+                runs.group_rays(g0, g1, None, &mut ls.gs);
                 let mut res = Vec::new();
                 let mut todo = std::mem::take(&mut ls.todo);
                 todo.clear();
@@ -134,11 +141,13 @@ pub(crate) fn render_radial(
                         // The sweep's previous rays become the list's buffer.
                         ls.gs.lists[b - g0] = sw.reset(phi, rays);
                         sw.off = off;
-                        let wedge = if runs.exact_only { None } else { runs.wedge(phi) };
-                        let (th0, th1) = wedge.unwrap_or((
-                            sw.rays[0].theta,
-                            sw.rays[sw.rays.len() - 1].theta,
-                        ));
+                        let wedge = if runs.exact_only {
+                            None
+                        } else {
+                            runs.wedge(phi)
+                        };
+                        let (th0, th1) =
+                            wedge.unwrap_or((sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta));
                         sw.ppr = bin_ppr(cam, phi, th0, th1);
                         sw.srange = (th0, th1);
                         if ctx.opts.coverage {
@@ -250,6 +259,92 @@ fn bin_count(cam: &crate::camera::Camera) -> usize {
     let sens = sens.max(grid);
     // Bins of width ≤ 1 px laterally at the most sensitive pixel.
     ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24)
+}
+
+/// One group of bins [g0, g1) of [`render_radial`] without coverage: each
+/// bin is swept first (its spans logged, see [`RadialSweep::record`]), then
+/// the group's rays are generated up to the highest elevation each bin's
+/// sweep covered (the rays above it see no surface), and each bin's spans
+/// are replayed on its rays, as a sweep run with all its rays would have
+/// revealed them, and its pixels solved.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn two_pass_group<'c, 'a>(
+    ctx: &'c Ctx<'a>,
+    runs: &Runs<'_>,
+    g0: usize,
+    g1: usize,
+    nb: usize,
+    off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
+    marks: &Marks,
+    ls: &mut Lockstep<'c, 'a>,
+    cancel: &Cancel,
+) -> Result<Vec<BinResult>> {
+    use std::f64::consts::PI;
+    let cam = ctx.cam;
+    let mut todo = std::mem::take(&mut ls.todo);
+    todo.clear();
+    while ls.sweeps.len() < g1 - g0 {
+        ls.sweeps
+            .push((RadialSweep::new(ctx, 0.0, &[]), RunState::default()));
+    }
+    // The bins whose plane meets the image, each its sweep, in order.
+    for b in g0..g1 {
+        let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+        let Some((th0, th1)) = runs.wedge(phi) else {
+            continue;
+        };
+        let sw = &mut ls.sweeps[todo.len()].0;
+        let mut buf = std::mem::take(&mut sw.rays);
+        buf.clear();
+        sw.reset(phi, buf);
+        sw.off = off;
+        sw.ppr = bin_ppr(cam, phi, th0, th1);
+        sw.srange = (th0, th1);
+        sw.record = true;
+        todo.push(b);
+    }
+    let live = &mut ls.sweeps[..todo.len()];
+    for chunk in live.chunks_mut(LOCKSTEP) {
+        cancel.check()?;
+        sweep_together(ctx, chunk, &mut ls.eval);
+    }
+    // Each bin's generation rows: those whose rays may lie below the
+    // highest covered elevation.
+    let mut rows = std::mem::take(&mut ls.rows);
+    rows.clear();
+    rows.resize(g1 - g0, None);
+    for (&b, (sw, _)) in todo.iter().zip(live.iter()) {
+        rows[b - g0] = sw
+            .covered_top()
+            .and_then(|top| runs.rows_below(sw.eh, top, sw.srange));
+    }
+    runs.group_rays(g0, g1, Some(&rows), &mut ls.gs);
+    ls.rows = rows;
+    let mut res = Vec::with_capacity(todo.len());
+    for (&b, (sw, _)) in todo.iter().zip(live.iter_mut()) {
+        let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
+        ls.gs.lists[b - g0] = sw.replay(rays);
+        sw.solve();
+        let stats = std::mem::take(&mut sw.stats);
+        if let Some(out) = direct {
+            for (k, p) in &sw.out {
+                // SAFETY: the bins partition the pixels and a bin lists each
+                // of its pixels once, so no other thread touches pixel k.
+                // Without coverage a bin lists set pixels only.
+                unsafe {
+                    out.put_set(*k, p);
+                    marks.put(*k, p);
+                }
+            }
+            res.push((Vec::new(), stats));
+        } else {
+            res.push((std::mem::take(&mut sw.out), stats));
+        }
+    }
+    ls.todo = todo;
+    Ok(res)
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
@@ -440,6 +535,7 @@ struct Runs<'b> {
     fd: DVec3,
     r: DVec3,
     up: DVec3,
+    focal: f64,
     /// Pixel centre x of column j is j + `c0` (up to rounding).
     c0: f64,
     tol: f64,
@@ -485,6 +581,7 @@ impl<'b> Runs<'b> {
             fd,
             r,
             up,
+            focal: cam.focal,
             c0: off.1 + 0.5 - half_w,
             tol: 1e-9 * size,
             exact_only: bins.n < 8 || !size.is_finite(),
@@ -546,6 +643,56 @@ impl<'b> Runs<'b> {
             return Some((-1.0, 1.0));
         }
         (lo <= hi).then_some((lo, hi))
+    }
+
+    /// The rows (indices in [`Self::group_rays`]' order) on which the bin
+    /// of azimuth (cos φ, sin φ) = `c` and wedge `srange` (see
+    /// [`Self::wedge`]) may have pixels with pseudo-elevation up to `top`
+    /// (None: no such pixel). Along the bin's screen line the elevation is
+    /// monotone, and its pixels lie within about half a pixel of that line:
+    /// the row where the line reaches `top`, three rows further for
+    /// safety, bounds them.
+    fn rows_below(&self, c: DVec2, top: f64, srange: (f64, f64)) -> Option<(usize, usize)> {
+        let h = self.h;
+        let all = Some((0, h - 1));
+        if top.is_nan() || top >= srange.1 {
+            return all;
+        }
+        if top < srange.0 {
+            return None;
+        }
+        let up = self.up.z >= 0.0;
+        // Index (fractional) of the row through the line's point at `s`.
+        // (Screen y = F·(d·up)/(d·d_cam) = F²·(d·up)/(d·F d_cam); NaN
+        // behind the eye.)
+        let at = |s: f64| -> f64 {
+            let d = direction(c, s);
+            let fz = d.dot(self.fd);
+            if fz.is_nan() || fz <= 0.0 {
+                return f64::NAN;
+            }
+            let y = self.focal * self.focal * d.dot(self.up) / fz;
+            let i = 0.5 * h as f64 - 0.5 - self.off.0 - y;
+            if up {
+                (h - 1) as f64 - i
+            } else {
+                i
+            }
+        };
+        let (r_lo, r_hi, r_top) = (at(srange.0), at(srange.1), at(top));
+        if !(r_lo.is_finite() && r_hi.is_finite() && r_top.is_finite()) {
+            return all;
+        }
+        let last = (h - 1) as f64;
+        if r_hi > r_lo {
+            let end = (r_top.ceil() + 3.0).clamp(0.0, last);
+            Some((0, end as usize))
+        } else if r_hi < r_lo {
+            let start = (r_top.floor() - 3.0).clamp(0.0, last);
+            Some((start as usize, h - 1))
+        } else {
+            all
+        }
     }
 
     /// The screen y of row i (as [`crate::camera::Camera::pixel_to_screen`]).
@@ -691,8 +838,18 @@ impl<'b> Runs<'b> {
     /// between the group's outer edges (one run, see [`Runs`]) take their
     /// bins from [`Bins::near`], walked along the row, as a whole-image
     /// binning would give them.
+    ///
+    /// With `rows`, bin b's pixels only on rows whose index in that order
+    /// lies in `rows[b − g0]` (none: no pixels), those of the others on
+    /// such rows possibly too.
     #[inline(never)]
-    fn group_rays(&self, g0: usize, g1: usize, gs: &mut GroupScratch) {
+    fn group_rays(
+        &self,
+        g0: usize,
+        g1: usize,
+        rows: Option<&[Option<(usize, usize)>]>,
+        gs: &mut GroupScratch,
+    ) {
         let (w, h) = (self.w, self.h);
         let nl = g1 - g0;
         gs.lists.resize_with(nl.max(gs.lists.len()), Vec::new);
@@ -703,12 +860,32 @@ impl<'b> Runs<'b> {
         gs.dy.resize(w, 0.0);
         gs.dz.resize(w, 0.0);
         gs.th.resize(w, 0.0);
-        let (e0, e1) = (self.bins.edge[g0], self.bins.edge[g1]);
         // A group as wide as a quarter turn or more: every pixel tested.
         let whole = self.exact_only || 4 * nl >= self.bins.n;
         let tol = self.tol;
         let up = self.up.z >= 0.0;
+        // The bins [g0 + b0, g0 + b1] that take pixels on the row (with
+        // `rows`), recomputed where one's rows start or end.
+        let (mut b0, mut b1, mut next) = (0, nl - 1, if rows.is_some() { 0 } else { h });
         for r in 0..h {
+            if r >= next {
+                let rows = rows.expect("rows given");
+                (b0, b1, next) = (usize::MAX, 0, h);
+                for (k, iv) in rows.iter().enumerate().take(nl) {
+                    let Some((ra, rb)) = *iv else { continue };
+                    if r >= ra && r <= rb {
+                        b0 = b0.min(k);
+                        b1 = b1.max(k);
+                        next = next.min(rb + 1);
+                    } else if r < ra {
+                        next = next.min(ra);
+                    }
+                }
+            }
+            if b0 > b1 {
+                continue;
+            }
+            let (e0, e1) = (self.bins.edge[g0 + b0], self.bins.edge[g0 + b1 + 1]);
             let i = if up { h - 1 - r } else { r };
             let y = self.y(i);
             // Possibly in the group: L_g0 > −tol and not L_g1 > tol.
@@ -790,6 +967,8 @@ struct Lockstep<'c, 'a> {
     gs: GroupScratch,
     sweeps: Vec<(RadialSweep<'c, 'a>, RunState)>,
     todo: Vec<usize>,
+    /// Each bin's generation rows (see [`Runs::rows_below`]).
+    rows: Vec<Option<(usize, usize)>>,
     eval: EvalScratch,
 }
 
@@ -1201,6 +1380,22 @@ struct RadialSweep<'c, 'a> {
     /// With `coverage`: the silhouette shading of rays that a span reaches
     /// into without covering their centre.
     edge: Vec<Option<Pixel>>,
+    /// Sweep without rays, logging what changes the coverage (see
+    /// [`two_pass_group`]): the spans (ends in `log`) and the single points
+    /// (after a hole), to be replayed on the rays by [`Self::replay`].
+    record: bool,
+    log: Vec<Sample>,
+    events: Vec<Event>,
+    points: Vec<f64>,
+}
+
+/// A change of a sweep's coverage (see [`RadialSweep::record`]).
+#[derive(Debug, Clone, Copy)]
+enum Event {
+    /// The span between two logged samples, and whether it is a wall.
+    Span(u32, u32, bool),
+    /// A single elevation (a sample after a hole).
+    Point(f64),
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -1226,6 +1421,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ext: Vec::new(),
             half: 0.0,
             edge: Vec::new(),
+            record: false,
+            log: Vec::new(),
+            events: Vec::new(),
+            points: Vec::new(),
         }
     }
 
@@ -1254,7 +1453,78 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.ext.clear();
         self.half = 0.0;
         self.edge.clear();
+        self.record = false;
+        self.log.clear();
+        self.events.clear();
         old
+    }
+
+    /// The highest covered pseudo-elevation (None: nothing covered).
+    fn covered_top(&self) -> Option<f64> {
+        self.cov.top().map(|t| t / self.ppr)
+    }
+
+    /// After a recorded sweep: its coverage rebuilt on the bin's rays
+    /// `rays` (row by row) from the logged changes, revealing the rays as
+    /// the sweep would have with them (the same spans in the same order).
+    /// Returns the previous rays' buffer (cleared).
+    fn replay(&mut self, rays: Vec<Ray>) -> Vec<Ray> {
+        let mut old = std::mem::replace(&mut self.rays, rays);
+        old.clear();
+        sort_rays(&mut self.rays);
+        self.done.clear();
+        self.done.resize(self.rays.len(), false);
+        let ppr = self.ppr;
+        self.rows.clear();
+        self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
+        self.cursor = 0;
+        self.record = false;
+        // The coverage is the union of the spans and points so far, and a
+        // span reveals every ray it holds that is not done and not covered
+        // before: a ray is covered exactly when it is done or on an earlier
+        // single point (kept in `points`, few).
+        self.points.clear();
+        let log = std::mem::take(&mut self.log);
+        let events = std::mem::take(&mut self.events);
+        for ev in &events {
+            match *ev {
+                Event::Span(a, b, wall) => {
+                    let (a, b) = (&log[a as usize], &log[b as usize]);
+                    let (lo, hi) = if a.rho <= b.rho {
+                        (a.rho, b.rho)
+                    } else {
+                        (b.rho, a.rho)
+                    };
+                    self.reveal(a, b, wall, lo, hi, true);
+                }
+                Event::Point(x) => self.points.push(x),
+            }
+        }
+        self.log = log;
+        self.events = events;
+        old
+    }
+
+    /// The index in `log` of sample `s`, logged unless it is the last one.
+    fn logged(&mut self, s: &Sample) -> u32 {
+        if let Some(l) = self.log.last() {
+            if l.t.to_bits() == s.t.to_bits()
+                && l.rho.to_bits() == s.rho.to_bits()
+                && l.wr.to_bits() == s.wr.to_bits()
+            {
+                return (self.log.len() - 1) as u32;
+            }
+        }
+        self.log.push(*s);
+        (self.log.len() - 1) as u32
+    }
+
+    /// Cover the single elevation x (a sample after a hole).
+    fn point(&mut self, x: f64) {
+        if self.record && !self.cov.contains(x) {
+            self.events.push(Event::Point(x));
+        }
+        self.cov.add(x, x);
     }
 
     /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½]
@@ -1481,7 +1751,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     fn begin(&mut self, st: &mut RunState) -> bool {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
-        if self.rays.is_empty() {
+        if self.rays.is_empty() && !self.record {
             return false;
         }
         let ppr = self.ppr;
@@ -1525,7 +1795,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             st.first = false;
             st.slots[0] = batch[0].map(|x| self.finish(x.t, x.uv, x.h));
             if let Some(a) = &st.slots[0] {
-                self.cov.add(a.rho, a.rho);
+                self.point(a.rho);
             }
             return self.drive(st, None);
         }
@@ -1637,7 +1907,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         None => self.span(a, b, wall),
                     }
                 }
-                (None, Some(b)) => self.cov.add(b.rho, b.rho),
+                (None, Some(b)) => self.point(b.rho),
                 (_, None) => {}
             }
             st.p = 1 - st.p;
@@ -1762,6 +2032,20 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             // Nothing newly revealed (the common case behind the front).
             return;
         }
+        if self.record {
+            let (ia, ib) = (self.logged(a), self.logged(b));
+            self.events.push(Event::Span(ia, ib, wall));
+        } else {
+            self.reveal(a, b, wall, lo, hi, false);
+        }
+        self.cov.add(lo, hi);
+    }
+
+    /// The rays of span a–b (elevations lo..hi) not revealed before: not
+    /// done and not covered (by the coverage, or with `replay` by a single
+    /// point of [`Self::replay`]).
+    #[inline(always)]
+    fn reveal(&mut self, a: &Sample, b: &Sample, wall: bool, lo: f64, hi: f64, replay: bool) {
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
         // The first ray with θ ≥ lo, walked to from the previous span's
         // (consecutive spans share an end).
@@ -1778,7 +2062,12 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut sp = None;
         while k < self.rows.len() && self.rows[k] <= hi {
             let th = self.rows[k];
-            if !self.done[k] && !self.cov.contains(th) {
+            let covered = if replay {
+                self.points.contains(&th)
+            } else {
+                self.cov.contains(th)
+            };
+            if !self.done[k] && !covered {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
@@ -1788,7 +2077,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
             k += 1;
         }
-        self.cov.add(lo, hi);
     }
 
     #[inline]
@@ -2013,7 +2301,7 @@ mod tests {
                 let groups = runs.groups(&cands);
                 assert_eq!(groups.iter().map(|g| g.1 - g.0).sum::<usize>(), cands.len());
                 for (g0, g1) in groups {
-                    runs.group_rays(g0, g1, &mut gs);
+                    runs.group_rays(g0, g1, None, &mut gs);
                     for b in g0..g1 {
                         let rays = &gs.lists[b - g0];
                         if !rays.is_empty() && nb >= bin_count(&cam) {
@@ -2021,9 +2309,32 @@ mod tests {
                             // The bin's wedge holds its rays' elevations.
                             let phi = -std::f64::consts::PI
                                 + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
-                            let (lo, hi) = runs.wedge(phi).expect("a bin with rays meets the image");
+                            let (lo, hi) =
+                                runs.wedge(phi).expect("a bin with rays meets the image");
                             for r in rays {
                                 assert!(r.theta >= lo && r.theta <= hi, "view ({el}, {az}) nb {nb} bin {b} ray {} theta {} wedge {lo} {hi}", r.k, r.theta);
+                            }
+                        }
+                        if !rays.is_empty() && nb >= bin_count(&cam) && !runs.exact_only {
+                            // Generated up to an elevation (half its rays):
+                            // every ray of the bin below it is among them.
+                            let phi = -std::f64::consts::PI
+                                + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
+                            let range = runs.wedge(phi).expect("wedge");
+                            let mut th: Vec<f64> = rays.iter().map(|r| r.theta).collect();
+                            th.sort_by(f64::total_cmp);
+                            let top = th[th.len() / 2];
+                            let mut rows = vec![None; g1 - g0];
+                            rows[b - g0] =
+                                runs.rows_below(DVec2::new(phi.cos(), phi.sin()), top, range);
+                            let mut capped = GroupScratch::default();
+                            runs.group_rays(g0, g1, Some(&rows), &mut capped);
+                            for r in rays.iter().filter(|r| r.theta <= top) {
+                                assert!(
+                                    capped.lists[b - g0].iter().any(|c| c.k == r.k),
+                                    "view ({el}, {az}) bin {b} ray {}",
+                                    r.k
+                                );
                             }
                         }
                         for ray in rays {
