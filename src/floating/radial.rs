@@ -281,6 +281,31 @@ fn two_pass_group<'c, 'a>(
     ls: &mut Lockstep<'c, 'a>,
     cancel: &Cancel,
 ) -> Result<Vec<BinResult>> {
+    let mut res = Vec::with_capacity(g1 - g0);
+    // A few bins at a time (the sweeps side by side, see
+    // [`sweep_together`]): a small working set.
+    for s0 in (g0..g1).step_by(LOCKSTEP) {
+        let s1 = (s0 + LOCKSTEP).min(g1);
+        two_pass_bins(ctx, runs, s0, s1, nb, off, direct, marks, ls, cancel, &mut res)?;
+    }
+    Ok(res)
+}
+
+/// [`two_pass_group`] for bins [g0, g1), their results onto `res`.
+#[allow(clippy::too_many_arguments)]
+fn two_pass_bins<'c, 'a>(
+    ctx: &'c Ctx<'a>,
+    runs: &Runs<'_>,
+    g0: usize,
+    g1: usize,
+    nb: usize,
+    off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
+    marks: &Marks,
+    ls: &mut Lockstep<'c, 'a>,
+    cancel: &Cancel,
+    res: &mut Vec<BinResult>,
+) -> Result<()> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let mut todo = std::mem::take(&mut ls.todo);
@@ -306,10 +331,8 @@ fn two_pass_group<'c, 'a>(
         todo.push(b);
     }
     let live = &mut ls.sweeps[..todo.len()];
-    for chunk in live.chunks_mut(LOCKSTEP) {
-        cancel.check()?;
-        sweep_together(ctx, chunk, &mut ls.eval);
-    }
+    cancel.check()?;
+    sweep_together(ctx, live, &mut ls.eval);
     // Each bin's generation rows: those whose rays may lie below the
     // highest covered elevation.
     let mut rows = std::mem::take(&mut ls.rows);
@@ -322,7 +345,6 @@ fn two_pass_group<'c, 'a>(
     }
     runs.group_rays(g0, g1, Some(&rows), &mut ls.gs);
     ls.rows = rows;
-    let mut res = Vec::with_capacity(todo.len());
     for (&b, (sw, _)) in todo.iter().zip(live.iter_mut()) {
         let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
         ls.gs.lists[b - g0] = sw.replay(rays);
@@ -344,7 +366,7 @@ fn two_pass_group<'c, 'a>(
         }
     }
     ls.todo = todo;
-    Ok(res)
+    Ok(())
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
