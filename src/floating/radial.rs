@@ -23,6 +23,11 @@
 //! a few neighbouring bins, generates their rays row by row from those runs
 //! and sweeps them (no binning of the whole image, no scatter of its pixels),
 //! a few bins side by side so that their samples are evaluated in one batch.
+//! A bin's elevation scale comes from its wedge ([`Runs::wedge`]), so that
+//! without coverage a bin is swept before its rays exist: its rays are then
+//! generated only up to the highest elevation the sweep covered (those above
+//! see no surface: often most of the image) and the sweep's spans replayed
+//! on them ([`two_pass_group`]).
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
@@ -66,6 +71,18 @@ pub(crate) fn render_radial(
     direct: Option<&SharedOut<'_>>,
     cancel: &Cancel,
 ) -> Result<(PixelLists, ColumnStats)> {
+    render_radial_with(ctx, off, direct, cancel, true)
+}
+
+/// [`render_radial`]; without `two_pass`, every bin's rays generated before
+/// its sweep (as with coverage).
+fn render_radial_with(
+    ctx: &Ctx<'_>,
+    off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
+    cancel: &Cancel,
+    two_pass: bool,
+) -> Result<(PixelLists, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -94,7 +111,7 @@ pub(crate) fn render_radial(
     // Without coverage, each bin is swept before its rays are generated,
     // and only the rays up to the highest elevation the sweep covered are
     // (those above it see no surface).
-    let two_pass = !ctx.opts.coverage && !runs.exact_only;
+    let two_pass = two_pass && !ctx.opts.coverage && !runs.exact_only;
     // The sweeps and ray buffers of each worker thread, kept from group to
     // group (rayon's per-task `map_init` would start each task afresh,
     // regrowing every buffer); a slot found busy (a task nested in another
@@ -261,12 +278,12 @@ fn bin_count(cam: &crate::camera::Camera) -> usize {
     ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24)
 }
 
-/// One group of bins [g0, g1) of [`render_radial`] without coverage: each
-/// bin is swept first (its spans logged, see [`RadialSweep::record`]), then
-/// the group's rays are generated up to the highest elevation each bin's
-/// sweep covered (the rays above it see no surface), and each bin's spans
-/// are replayed on its rays, as a sweep run with all its rays would have
-/// revealed them, and its pixels solved.
+/// One group of bins [g0, g1) of [`render_radial`] without coverage, a few
+/// bins at a time: each bin is swept first (its spans logged, see
+/// [`RadialSweep::record`]), then the bins' rays are generated up to the
+/// highest elevation each bin's sweep covered (the rays above it see no
+/// surface), and each bin's spans are replayed on its rays, revealing them
+/// as a sweep run with all its rays would have, and its pixels solved.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn two_pass_group<'c, 'a>(
@@ -286,7 +303,9 @@ fn two_pass_group<'c, 'a>(
     // [`sweep_together`]): a small working set.
     for s0 in (g0..g1).step_by(LOCKSTEP) {
         let s1 = (s0 + LOCKSTEP).min(g1);
-        two_pass_bins(ctx, runs, s0, s1, nb, off, direct, marks, ls, cancel, &mut res)?;
+        two_pass_bins(
+            ctx, runs, s0, s1, nb, off, direct, marks, ls, cancel, &mut res,
+        )?;
     }
     Ok(res)
 }
@@ -2283,6 +2302,76 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 mod tests {
     use super::*;
     use crate::camera::{Projection, View};
+
+    /// A render whose bins are swept before their rays exist (rays only up
+    /// to the covered elevations, spans replayed) holds exactly the pixels,
+    /// bit for bit, of one whose bins have all their rays during the sweep:
+    /// views from above, level, straight down (the vanishing point of the
+    /// verticals in the image), sub-pixel offsets, exact solve on and off.
+    #[test]
+    fn two_pass_bins_equal_bins_with_all_rays() {
+        let d = crate::surface::Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+        let f = crate::source::ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, d).unwrap();
+        let sh = crate::shade::Shading::default();
+        let mut compared = 0;
+        for (el, az, dist, w, h) in [
+            (30.0, 40.0, 24.0, 96, 80),
+            (8.0, 200.0, 12.0, 70, 41),
+            (89.5, 10.0, 14.0, 48, 52),
+            (55.0, 310.0, 9.0, 61, 64),
+        ] {
+            let view = View {
+                elevation: el,
+                azimuth: az,
+                projection: Projection::Perspective {
+                    distance: dist,
+                    fov: 45.0,
+                },
+                target: DVec3::ZERO,
+            };
+            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            for refine in [true, false] {
+                let opts = super::super::FloatingOptions {
+                    refine,
+                    ..Default::default()
+                };
+                let ctx = Ctx {
+                    cam: &cam,
+                    frame: super::super::sampling::Frame::new(&cam, d),
+                    field: &f,
+                    shading: &sh,
+                    opts: &opts,
+                    refine,
+                    fallback: true,
+                };
+                for off in [(0.0, 0.0), (0.25, -0.375)] {
+                    let pixels = |two_pass: bool| {
+                        let (lists, _) =
+                            render_radial_with(&ctx, off, None, &Cancel::new(), two_pass).unwrap();
+                        let mut all: Vec<(usize, [u64; 9], i8, bool)> = lists
+                            .into_iter()
+                            .flatten()
+                            .map(|(k, p)| {
+                                let b = [
+                                    p.depth, p.n.x, p.n.y, p.n.z, p.uv.x, p.uv.y, p.inten, p.cover,
+                                    0.0,
+                                ]
+                                .map(f64::to_bits);
+                                (k, b, p.side, p.set)
+                            })
+                            .collect();
+                        all.sort_unstable();
+                        all
+                    };
+                    let (a, b) = (pixels(true), pixels(false));
+                    assert!(!a.is_empty(), "view ({el}, {az}): nothing seen");
+                    assert_eq!(a, b, "view ({el}, {az}), refine {refine}, offset {off:?}");
+                    compared += a.len();
+                }
+            }
+        }
+        assert!(compared > 10_000);
+    }
 
     /// Each bin's generated rays are the pixels whose ray [`Bins::of`]
     /// puts in it, every pixel in exactly one bin among the candidates,
