@@ -963,7 +963,14 @@ impl<'b> Runs<'b> {
                 (*dx, *dy, *dz, *th) = (d.x, d.y, d.z, t);
             }
             let base = i * w;
-            let mut b = usize::MAX;
+            // The walk starts at the bin of the run's first column: the
+            // lower of the run's bins when the columns go counter-clockwise
+            // (L_e grows with the column), else the upper.
+            let mut b = if e0.x * self.r.y - e0.y * self.r.x > 0.0 {
+                g0 + b0
+            } else {
+                g0 + b1
+            };
             for (m, (((&dx, &dy), &dz), &theta)) in dxs
                 .iter()
                 .zip(dys.iter())
