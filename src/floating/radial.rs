@@ -299,10 +299,11 @@ fn two_pass_group<'c, 'a>(
     cancel: &Cancel,
 ) -> Result<Vec<BinResult>> {
     let mut res = Vec::with_capacity(g1 - g0);
-    // A few bins at a time (the sweeps side by side, see
-    // [`sweep_together`]): a small working set.
-    for s0 in (g0..g1).step_by(LOCKSTEP) {
-        let s1 = (s0 + LOCKSTEP).min(g1);
+    // A few bins at a time (two lockstep batches of sweeps, see
+    // [`sweep_together`]): a small working set, the rays of several bins
+    // generated row by row together.
+    for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
+        let s1 = (s0 + TWO_PASS_BINS).min(g1);
         two_pass_bins(
             ctx, runs, s0, s1, nb, off, direct, marks, ls, cancel, &mut res,
         )?;
@@ -350,8 +351,10 @@ fn two_pass_bins<'c, 'a>(
         todo.push(b);
     }
     let live = &mut ls.sweeps[..todo.len()];
-    cancel.check()?;
-    sweep_together(ctx, live, &mut ls.eval);
+    for chunk in live.chunks_mut(LOCKSTEP) {
+        cancel.check()?;
+        sweep_together(ctx, chunk, &mut ls.eval);
+    }
     // Each bin's generation rows: those whose rays may lie below the
     // highest covered elevation.
     let mut rows = std::mem::take(&mut ls.rows);
@@ -1007,6 +1010,9 @@ struct GroupScratch {
 
 /// Bins swept side by side (see [`sweep_together`]).
 const LOCKSTEP: usize = 8;
+
+/// Bins of one round of [`two_pass_group`] (their sweeps, then their rays).
+const TWO_PASS_BINS: usize = 16;
 
 /// A worker thread's buffers: its group's rays, its sweeps (each with the
 /// state of its run) and the batched evaluation's buffers.
