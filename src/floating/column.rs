@@ -144,6 +144,18 @@ impl Coverage {
     pub(super) fn interval(&self, x: f64) -> Option<(f64, f64)> {
         self.iv.iter().copied().find(|&(a, b)| x >= a && x <= b)
     }
+    /// The highest covered value (None: nothing covered; NaN where that
+    /// cannot be told).
+    pub(super) fn top(&self) -> Option<f64> {
+        let mut top: Option<f64> = None;
+        for &(a, b) in &self.iv {
+            if a.is_nan() || b.is_nan() {
+                return Some(f64::NAN);
+            }
+            top = Some(top.map_or(b, |t| t.max(b)));
+        }
+        top
+    }
     pub(super) fn covers(&self, lo: f64, hi: f64) -> bool {
         self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)
     }

@@ -23,6 +23,11 @@
 //! a few neighbouring bins, generates their rays row by row from those runs
 //! and sweeps them (no binning of the whole image, no scatter of its pixels),
 //! a few bins side by side so that their samples are evaluated in one batch.
+//! A bin's elevation scale comes from its wedge ([`Runs::wedge`]), so that
+//! without coverage a bin is swept before its rays exist: its rays are then
+//! generated only up to the highest elevation the sweep covered (those above
+//! see no surface: often most of the image) and the sweep's spans replayed
+//! on them ([`two_pass_group`]).
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
@@ -66,48 +71,22 @@ pub(crate) fn render_radial(
     direct: Option<&SharedOut<'_>>,
     cancel: &Cancel,
 ) -> Result<(PixelLists, ColumnStats)> {
+    render_radial_with(ctx, off, direct, cancel, true)
+}
+
+/// [`render_radial`]; without `two_pass`, every bin's rays generated before
+/// its sweep (as with coverage).
+fn render_radial_with(
+    ctx: &Ctx<'_>,
+    off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
+    cancel: &Cancel,
+    two_pass: bool,
+) -> Result<(PixelLists, ColumnStats)> {
     use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
-    let e = cam.eye;
-    // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
-    // largest far from the vanishing point of the verticals, on the border.
-    let delta: f64 = 1e-6;
-    let (sd, cd) = delta.sin_cos();
-    let probe = |i: usize, j: usize| -> f64 {
-        let (_, dir) = cam.ray(i as f64, j as f64);
-        if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
-            let d2 = DVec3::new(cd * dir.x - sd * dir.y, sd * dir.x + cd * dir.y, dir.z);
-            let p1 = cam.to_screen(e + dir);
-            let p2 = cam.to_screen(e + d2);
-            let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
-            if ds.is_finite() {
-                return ds;
-            }
-        }
-        1.0
-    };
-    // The border, then every 8th pixel of every 8th row (rows in parallel;
-    // the maximum does not depend on the order).
-    let mut sens: f64 = 1.0;
-    for j in 0..w {
-        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
-    }
-    for i in 0..h {
-        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
-    }
-    let grid = (0..h.div_ceil(8))
-        .into_par_iter()
-        .map(|r| {
-            (0..w)
-                .step_by(8)
-                .map(|j| probe(8 * r, j))
-                .fold(1.0, f64::max)
-        })
-        .reduce(|| 1.0, f64::max);
-    let sens = sens.max(grid);
-    // Bins of width ≤ 1 px laterally at the most sensitive pixel.
-    let nb = ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24);
+    let nb = bin_count(cam);
     let bins = Bins::new(nb);
     // Each bin generates its own rays, row by row (see [`Runs`]): no
     // binning of the whole image, no scatter into bins. Its rays' order is
@@ -129,6 +108,10 @@ pub(crate) fn render_radial(
         depth: depth.as_mut_ptr(),
     };
     let groups = runs.groups(&cands);
+    // Without coverage, each bin is swept before its rays are generated,
+    // and only the rays up to the highest elevation the sweep covered are
+    // (those above it see no surface).
+    let two_pass = two_pass && !ctx.opts.coverage && !runs.exact_only;
     // The sweeps and ray buffers of each worker thread, kept from group to
     // group (rayon's per-task `map_init` would start each task afresh,
     // regrowing every buffer); a slot found busy (a task nested in another
@@ -150,7 +133,10 @@ pub(crate) fn render_radial(
             };
             (|| -> Result<Vec<BinResult>> {
                 cancel.check()?;
-                runs.group_rays(g0, g1, &mut ls.gs);
+                if two_pass {
+                    return two_pass_group(ctx, &runs, g0, g1, nb, off, direct, &marks, ls, cancel);
+                }
+                runs.group_rays(g0, g1, None, &mut ls.gs);
                 let mut res = Vec::new();
                 let mut todo = std::mem::take(&mut ls.todo);
                 todo.clear();
@@ -172,8 +158,15 @@ pub(crate) fn render_radial(
                         // The sweep's previous rays become the list's buffer.
                         ls.gs.lists[b - g0] = sw.reset(phi, rays);
                         sw.off = off;
-                        let (th0, th1) = (sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta);
+                        let wedge = if runs.exact_only {
+                            None
+                        } else {
+                            runs.wedge(phi)
+                        };
+                        let (th0, th1) =
+                            wedge.unwrap_or((sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta));
                         sw.ppr = bin_ppr(cam, phi, th0, th1);
+                        sw.srange = (th0, th1);
                         if ctx.opts.coverage {
                             sw.start_coverage();
                         }
@@ -237,6 +230,165 @@ pub(crate) fn render_radial(
         }
     }
     Ok((all, stats))
+}
+
+/// The number of azimuth bins of a perspective view: bins at most a pixel
+/// wide laterally at the most sensitive pixel.
+fn bin_count(cam: &crate::camera::Camera) -> usize {
+    use std::f64::consts::PI;
+    let (w, h) = (cam.width, cam.height);
+    let e = cam.eye;
+    // The bin width: |∂(screen)/∂φ| (pixels per radian of azimuth) is
+    // largest far from the vanishing point of the verticals, on the border.
+    let delta: f64 = 1e-6;
+    let (sd, cd) = delta.sin_cos();
+    let probe = |i: usize, j: usize| -> f64 {
+        let (_, dir) = cam.ray(i as f64, j as f64);
+        if (dir.x * dir.x + dir.y * dir.y).sqrt() > 1e-9 {
+            let d2 = DVec3::new(cd * dir.x - sd * dir.y, sd * dir.x + cd * dir.y, dir.z);
+            let p1 = cam.to_screen(e + dir);
+            let p2 = cam.to_screen(e + d2);
+            let ds = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt() / delta;
+            if ds.is_finite() {
+                return ds;
+            }
+        }
+        1.0
+    };
+    // The border, then every 8th pixel of every 8th row (rows in parallel;
+    // the maximum does not depend on the order).
+    let mut sens: f64 = 1.0;
+    for j in 0..w {
+        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
+    }
+    for i in 0..h {
+        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
+    }
+    let grid = (0..h.div_ceil(8))
+        .into_par_iter()
+        .map(|r| {
+            (0..w)
+                .step_by(8)
+                .map(|j| probe(8 * r, j))
+                .fold(1.0, f64::max)
+        })
+        .reduce(|| 1.0, f64::max);
+    let sens = sens.max(grid);
+    // Bins of width ≤ 1 px laterally at the most sensitive pixel.
+    ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24)
+}
+
+/// One group of bins [g0, g1) of [`render_radial`] without coverage, a few
+/// bins at a time: each bin is swept first (its spans logged, see
+/// [`RadialSweep::record`]), then the bins' rays are generated up to the
+/// highest elevation each bin's sweep covered (the rays above it see no
+/// surface), and each bin's spans are replayed on its rays, revealing them
+/// as a sweep run with all its rays would have, and its pixels solved.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn two_pass_group<'c, 'a>(
+    ctx: &'c Ctx<'a>,
+    runs: &Runs<'_>,
+    g0: usize,
+    g1: usize,
+    nb: usize,
+    off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
+    marks: &Marks,
+    ls: &mut Lockstep<'c, 'a>,
+    cancel: &Cancel,
+) -> Result<Vec<BinResult>> {
+    let mut res = Vec::with_capacity(g1 - g0);
+    // A few bins at a time (two lockstep batches of sweeps, see
+    // [`sweep_together`]): a small working set, the rays of several bins
+    // generated row by row together.
+    for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
+        let s1 = (s0 + TWO_PASS_BINS).min(g1);
+        two_pass_bins(
+            ctx, runs, s0, s1, nb, off, direct, marks, ls, cancel, &mut res,
+        )?;
+    }
+    Ok(res)
+}
+
+/// [`two_pass_group`] for bins [g0, g1), their results onto `res`.
+#[allow(clippy::too_many_arguments)]
+fn two_pass_bins<'c, 'a>(
+    ctx: &'c Ctx<'a>,
+    runs: &Runs<'_>,
+    g0: usize,
+    g1: usize,
+    nb: usize,
+    off: (f64, f64),
+    direct: Option<&SharedOut<'_>>,
+    marks: &Marks,
+    ls: &mut Lockstep<'c, 'a>,
+    cancel: &Cancel,
+    res: &mut Vec<BinResult>,
+) -> Result<()> {
+    use std::f64::consts::PI;
+    let cam = ctx.cam;
+    let mut todo = std::mem::take(&mut ls.todo);
+    todo.clear();
+    while ls.sweeps.len() < g1 - g0 {
+        ls.sweeps
+            .push((RadialSweep::new(ctx, 0.0, &[]), RunState::default()));
+    }
+    // The bins whose plane meets the image, each its sweep, in order.
+    for b in g0..g1 {
+        let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+        let Some((th0, th1)) = runs.wedge(phi) else {
+            continue;
+        };
+        let sw = &mut ls.sweeps[todo.len()].0;
+        let mut buf = std::mem::take(&mut sw.rays);
+        buf.clear();
+        sw.reset(phi, buf);
+        sw.off = off;
+        sw.ppr = bin_ppr(cam, phi, th0, th1);
+        sw.srange = (th0, th1);
+        sw.record = true;
+        todo.push(b);
+    }
+    let live = &mut ls.sweeps[..todo.len()];
+    for chunk in live.chunks_mut(LOCKSTEP) {
+        cancel.check()?;
+        sweep_together(ctx, chunk, &mut ls.eval);
+    }
+    // Each bin's generation rows: those whose rays may lie below the
+    // highest covered elevation.
+    let mut rows = std::mem::take(&mut ls.rows);
+    rows.clear();
+    rows.resize(g1 - g0, None);
+    for (&b, (sw, _)) in todo.iter().zip(live.iter()) {
+        rows[b - g0] = sw
+            .covered_top()
+            .and_then(|top| runs.rows_below(sw.eh, top, sw.srange));
+    }
+    runs.group_rays(g0, g1, Some(&rows), &mut ls.gs);
+    ls.rows = rows;
+    for (&b, (sw, _)) in todo.iter().zip(live.iter_mut()) {
+        let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
+        ls.gs.lists[b - g0] = sw.replay(rays);
+        sw.solve();
+        let stats = std::mem::take(&mut sw.stats);
+        if let Some(out) = direct {
+            for (k, p) in &sw.out {
+                // SAFETY: the bins partition the pixels and a bin lists each
+                // of its pixels once, so no other thread touches pixel k.
+                // Without coverage a bin lists set pixels only.
+                unsafe {
+                    out.put_set(*k, p);
+                    marks.put(*k, p);
+                }
+            }
+            res.push((Vec::new(), stats));
+        } else {
+            res.push((std::mem::take(&mut sw.out), stats));
+        }
+    }
+    ls.todo = todo;
+    Ok(())
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
@@ -427,6 +579,7 @@ struct Runs<'b> {
     fd: DVec3,
     r: DVec3,
     up: DVec3,
+    focal: f64,
     /// Pixel centre x of column j is j + `c0` (up to rounding).
     c0: f64,
     tol: f64,
@@ -435,6 +588,8 @@ struct Runs<'b> {
     /// Whether the vanishing point of the verticals is near the image
     /// (every bin may reach it).
     vp_near: bool,
+    /// That vanishing point (screen x, y), if finite.
+    vp: Option<DVec2>,
 }
 
 /// Columns [lo, hi) of a row: [0, hi), [lo, w), or empty (lo ≥ hi).
@@ -454,13 +609,14 @@ impl<'b> Runs<'b> {
         // vertical (its horizontal part zero), at infinity when no finite x,
         // y solve it (d horizontal).
         let det = r.x * up.y - r.y * up.x;
-        let vp_near = if det.abs() > 1e-12 {
+        let vp = if det.abs() > 1e-12 {
             let x = (-fd.x * up.y + fd.y * up.x) / det;
             let y = (-r.x * fd.y + r.y * fd.x) / det;
-            !(x.abs() > half_w + 4.0 || y.abs() > half_h + 4.0)
+            (x.is_finite() && y.is_finite()).then_some(DVec2::new(x, y))
         } else {
-            false
+            None
         };
+        let vp_near = vp.is_some_and(|v| !(v.x.abs() > half_w + 4.0 || v.y.abs() > half_h + 4.0));
         Runs {
             bins,
             w,
@@ -469,10 +625,117 @@ impl<'b> Runs<'b> {
             fd,
             r,
             up,
+            focal: cam.focal,
             c0: off.1 + 0.5 - half_w,
             tol: 1e-9 * size,
             exact_only: bins.n < 8 || !size.is_finite(),
             vp_near,
+            vp,
+        }
+    }
+
+    /// The pseudo-elevations (see [`elevation`]) that the vertical plane of
+    /// azimuth φ reaches on the image, widened by two pixels on every side
+    /// (the pixels of a bin, at most about a pixel wide, lie within them):
+    /// its screen line L = 0 (see [`Runs`]) clipped to that rectangle, on the
+    /// side where the plane's rays point along φ, and the vanishing point of
+    /// the verticals (θ = ±π/2) when it lies inside. None: the plane misses
+    /// the image.
+    fn wedge(&self, phi: f64) -> Option<(f64, f64)> {
+        let (fd, r, up) = (self.fd, self.r, self.up);
+        let (sp, cp) = phi.sin_cos();
+        let c = DVec2::new(cp, sp);
+        let a = c.x * fd.y - c.y * fd.x;
+        let q = c.x * r.y - c.y * r.x;
+        let p = c.x * up.y - c.y * up.x;
+        let (x0, x1) = (self.c0 - 2.0, self.c0 + self.w as f64 + 1.0);
+        let (y0, y1) = (self.y(self.h - 1) - 2.0, self.y(0) + 2.0);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut take = |x: f64, y: f64| {
+            let v = fd + x * r + y * up;
+            if c.x * v.x + c.y * v.y > 0.0 {
+                let s = elevation(v.z, (v.x * v.x + v.y * v.y).sqrt());
+                lo = lo.min(s);
+                hi = hi.max(s);
+            }
+        };
+        if p != 0.0 {
+            for x in [x0, x1] {
+                let y = -(a + q * x) / p;
+                if y >= y0 && y <= y1 {
+                    take(x, y);
+                }
+            }
+        }
+        if q != 0.0 {
+            for y in [y0, y1] {
+                let x = -(a + p * y) / q;
+                if x >= x0 && x <= x1 {
+                    take(x, y);
+                }
+            }
+        }
+        if let Some(v) = self.vp {
+            if v.x >= x0 && v.x <= x1 && v.y >= y0 && v.y <= y1 {
+                let vz = fd.z + v.x * r.z + v.y * up.z;
+                let s = if vz >= 0.0 { 1.0 } else { -1.0 };
+                lo = lo.min(s);
+                hi = hi.max(s);
+            }
+        }
+        if !(a.is_finite() && p.is_finite() && q.is_finite()) || (p == 0.0 && q == 0.0) {
+            return Some((-1.0, 1.0));
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+
+    /// The rows (indices in [`Self::group_rays`]' order) on which the bin
+    /// of azimuth (cos φ, sin φ) = `c` and wedge `srange` (see
+    /// [`Self::wedge`]) may have pixels with pseudo-elevation up to `top`
+    /// (None: no such pixel). Along the bin's screen line the elevation is
+    /// monotone, and its pixels lie within about half a pixel of that line:
+    /// the row where the line reaches `top`, three rows further for
+    /// safety, bounds them.
+    fn rows_below(&self, c: DVec2, top: f64, srange: (f64, f64)) -> Option<(usize, usize)> {
+        let h = self.h;
+        let all = Some((0, h - 1));
+        if top.is_nan() || top >= srange.1 {
+            return all;
+        }
+        if top < srange.0 {
+            return None;
+        }
+        let up = self.up.z >= 0.0;
+        // Index (fractional) of the row through the line's point at `s`.
+        // (Screen y = F·(d·up)/(d·d_cam) = F²·(d·up)/(d·F d_cam); NaN
+        // behind the eye.)
+        let at = |s: f64| -> f64 {
+            let d = direction(c, s);
+            let fz = d.dot(self.fd);
+            if fz.is_nan() || fz <= 0.0 {
+                return f64::NAN;
+            }
+            let y = self.focal * self.focal * d.dot(self.up) / fz;
+            let i = 0.5 * h as f64 - 0.5 - self.off.0 - y;
+            if up {
+                (h - 1) as f64 - i
+            } else {
+                i
+            }
+        };
+        let (r_lo, r_hi, r_top) = (at(srange.0), at(srange.1), at(top));
+        if !(r_lo.is_finite() && r_hi.is_finite() && r_top.is_finite()) {
+            return all;
+        }
+        let last = (h - 1) as f64;
+        if r_hi > r_lo {
+            let end = (r_top.ceil() + 3.0).clamp(0.0, last);
+            Some((0, end as usize))
+        } else if r_hi < r_lo {
+            let start = (r_top.floor() - 3.0).clamp(0.0, last);
+            Some((start as usize, h - 1))
+        } else {
+            all
         }
     }
 
@@ -619,8 +882,18 @@ impl<'b> Runs<'b> {
     /// between the group's outer edges (one run, see [`Runs`]) take their
     /// bins from [`Bins::near`], walked along the row, as a whole-image
     /// binning would give them.
+    ///
+    /// With `rows`, bin b's pixels only on rows whose index in that order
+    /// lies in `rows[b − g0]` (none: no pixels), those of the others on
+    /// such rows possibly too.
     #[inline(never)]
-    fn group_rays(&self, g0: usize, g1: usize, gs: &mut GroupScratch) {
+    fn group_rays(
+        &self,
+        g0: usize,
+        g1: usize,
+        rows: Option<&[Option<(usize, usize)>]>,
+        gs: &mut GroupScratch,
+    ) {
         let (w, h) = (self.w, self.h);
         let nl = g1 - g0;
         gs.lists.resize_with(nl.max(gs.lists.len()), Vec::new);
@@ -631,12 +904,32 @@ impl<'b> Runs<'b> {
         gs.dy.resize(w, 0.0);
         gs.dz.resize(w, 0.0);
         gs.th.resize(w, 0.0);
-        let (e0, e1) = (self.bins.edge[g0], self.bins.edge[g1]);
         // A group as wide as a quarter turn or more: every pixel tested.
         let whole = self.exact_only || 4 * nl >= self.bins.n;
         let tol = self.tol;
         let up = self.up.z >= 0.0;
+        // The bins [g0 + b0, g0 + b1] that take pixels on the row (with
+        // `rows`), recomputed where one's rows start or end.
+        let (mut b0, mut b1, mut next) = (0, nl - 1, if rows.is_some() { 0 } else { h });
         for r in 0..h {
+            if r >= next {
+                let rows = rows.expect("rows given");
+                (b0, b1, next) = (usize::MAX, 0, h);
+                for (k, iv) in rows.iter().enumerate().take(nl) {
+                    let Some((ra, rb)) = *iv else { continue };
+                    if r >= ra && r <= rb {
+                        b0 = b0.min(k);
+                        b1 = b1.max(k);
+                        next = next.min(rb + 1);
+                    } else if r < ra {
+                        next = next.min(ra);
+                    }
+                }
+            }
+            if b0 > b1 {
+                continue;
+            }
+            let (e0, e1) = (self.bins.edge[g0 + b0], self.bins.edge[g0 + b1 + 1]);
             let i = if up { h - 1 - r } else { r };
             let y = self.y(i);
             // Possibly in the group: L_g0 > −tol and not L_g1 > tol.
@@ -673,7 +966,14 @@ impl<'b> Runs<'b> {
                 (*dx, *dy, *dz, *th) = (d.x, d.y, d.z, t);
             }
             let base = i * w;
-            let mut b = usize::MAX;
+            // The walk starts at the bin of the run's first column: the
+            // lower of the run's bins when the columns go counter-clockwise
+            // (L_e grows with the column), else the upper.
+            let mut b = if e0.x * self.r.y - e0.y * self.r.x > 0.0 {
+                g0 + b0
+            } else {
+                g0 + b1
+            };
             for (m, (((&dx, &dy), &dz), &theta)) in dxs
                 .iter()
                 .zip(dys.iter())
@@ -711,6 +1011,9 @@ struct GroupScratch {
 /// Bins swept side by side (see [`sweep_together`]).
 const LOCKSTEP: usize = 8;
 
+/// Bins of one round of [`two_pass_group`] (their sweeps, then their rays).
+const TWO_PASS_BINS: usize = 16;
+
 /// A worker thread's buffers: its group's rays, its sweeps (each with the
 /// state of its run) and the batched evaluation's buffers.
 #[derive(Default)]
@@ -718,6 +1021,8 @@ struct Lockstep<'c, 'a> {
     gs: GroupScratch,
     sweeps: Vec<(RadialSweep<'c, 'a>, RunState)>,
     todo: Vec<usize>,
+    /// Each bin's generation rows (see [`Runs::rows_below`]).
+    rows: Vec<Option<(usize, usize)>>,
     eval: EvalScratch,
 }
 
@@ -1111,6 +1416,9 @@ struct RadialSweep<'c, 'a> {
     failed: Vec<u32>,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
+    /// Pseudo-elevations of the bin's wedge (see [`Runs::wedge`]): its rays
+    /// lie within them.
+    srange: (f64, f64),
     ahead: Ahead,
     /// Where the last span's rays started (in `rays`).
     cursor: usize,
@@ -1126,6 +1434,22 @@ struct RadialSweep<'c, 'a> {
     /// With `coverage`: the silhouette shading of rays that a span reaches
     /// into without covering their centre.
     edge: Vec<Option<Pixel>>,
+    /// Sweep without rays, logging what changes the coverage (see
+    /// [`two_pass_group`]): the spans (ends in `log`) and the single points
+    /// (after a hole), to be replayed on the rays by [`Self::replay`].
+    record: bool,
+    log: Vec<Sample>,
+    events: Vec<Event>,
+    points: Vec<f64>,
+}
+
+/// A change of a sweep's coverage (see [`RadialSweep::record`]).
+#[derive(Debug, Clone, Copy)]
+enum Event {
+    /// The span between two logged samples, and whether it is a wall.
+    Span(u32, u32, bool),
+    /// A single elevation (a sample after a hole).
+    Point(f64),
 }
 
 impl<'c, 'a> RadialSweep<'c, 'a> {
@@ -1143,6 +1467,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             solver: Default::default(),
             failed: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
+            srange: (-1.0, 1.0),
             ahead: Ahead::default(),
             cursor: 0,
             off: (0.0, 0.0),
@@ -1150,6 +1475,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ext: Vec::new(),
             half: 0.0,
             edge: Vec::new(),
+            record: false,
+            log: Vec::new(),
+            events: Vec::new(),
+            points: Vec::new(),
         }
     }
 
@@ -1169,6 +1498,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.stats = ColumnStats::default();
         self.jobs.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
+        self.srange = (-1.0, 1.0);
         // (A new sweep's look-ahead, its buffers kept.)
         self.ahead.reset();
         self.cursor = 0;
@@ -1177,7 +1507,78 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.ext.clear();
         self.half = 0.0;
         self.edge.clear();
+        self.record = false;
+        self.log.clear();
+        self.events.clear();
         old
+    }
+
+    /// The highest covered pseudo-elevation (None: nothing covered).
+    fn covered_top(&self) -> Option<f64> {
+        self.cov.top().map(|t| t / self.ppr)
+    }
+
+    /// After a recorded sweep: its coverage rebuilt on the bin's rays
+    /// `rays` (row by row) from the logged changes, revealing the rays as
+    /// the sweep would have with them (the same spans in the same order).
+    /// Returns the previous rays' buffer (cleared).
+    fn replay(&mut self, rays: Vec<Ray>) -> Vec<Ray> {
+        let mut old = std::mem::replace(&mut self.rays, rays);
+        old.clear();
+        sort_rays(&mut self.rays);
+        self.done.clear();
+        self.done.resize(self.rays.len(), false);
+        let ppr = self.ppr;
+        self.rows.clear();
+        self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
+        self.cursor = 0;
+        self.record = false;
+        // The coverage is the union of the spans and points so far, and a
+        // span reveals every ray it holds that is not done and not covered
+        // before: a ray is covered exactly when it is done or on an earlier
+        // single point (kept in `points`, few).
+        self.points.clear();
+        let log = std::mem::take(&mut self.log);
+        let events = std::mem::take(&mut self.events);
+        for ev in &events {
+            match *ev {
+                Event::Span(a, b, wall) => {
+                    let (a, b) = (&log[a as usize], &log[b as usize]);
+                    let (lo, hi) = if a.rho <= b.rho {
+                        (a.rho, b.rho)
+                    } else {
+                        (b.rho, a.rho)
+                    };
+                    self.reveal(a, b, wall, lo, hi, true);
+                }
+                Event::Point(x) => self.points.push(x),
+            }
+        }
+        self.log = log;
+        self.events = events;
+        old
+    }
+
+    /// The index in `log` of sample `s`, logged unless it is the last one.
+    fn logged(&mut self, s: &Sample) -> u32 {
+        if let Some(l) = self.log.last() {
+            if l.t.to_bits() == s.t.to_bits()
+                && l.rho.to_bits() == s.rho.to_bits()
+                && l.wr.to_bits() == s.wr.to_bits()
+            {
+                return (self.log.len() - 1) as u32;
+            }
+        }
+        self.log.push(*s);
+        (self.log.len() - 1) as u32
+    }
+
+    /// Cover the single elevation x (a sample after a hole).
+    fn point(&mut self, x: f64) {
+        if self.record && !self.cov.contains(x) {
+            self.events.push(Event::Point(x));
+        }
+        self.cov.add(x, x);
     }
 
     /// §6.4 coverage for the bin: each ray's row extent [i − ½, i + ½]
@@ -1404,13 +1805,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     fn begin(&mut self, st: &mut RunState) -> bool {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
-        if self.rays.is_empty() {
+        if self.rays.is_empty() && !self.record {
             return false;
         }
         let ppr = self.ppr;
         self.rows.clear();
         self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
-        (st.th_lo, st.th_hi) = (self.rows[0], self.rows[self.rows.len() - 1]);
+        (st.th_lo, st.th_hi) = (self.srange.0 * ppr, self.srange.1 * ppr);
         // Domain clip of the half-line E_h + ρ·e_h, ρ ≥ 0.
         let d = ctx.frame.domain;
         let (mut r0, mut r1) = (0.0f64, f64::INFINITY);
@@ -1448,7 +1849,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             st.first = false;
             st.slots[0] = batch[0].map(|x| self.finish(x.t, x.uv, x.h));
             if let Some(a) = &st.slots[0] {
-                self.cov.add(a.rho, a.rho);
+                self.point(a.rho);
             }
             return self.drive(st, None);
         }
@@ -1560,7 +1961,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         None => self.span(a, b, wall),
                     }
                 }
-                (None, Some(b)) => self.cov.add(b.rho, b.rho),
+                (None, Some(b)) => self.point(b.rho),
                 (_, None) => {}
             }
             st.p = 1 - st.p;
@@ -1685,6 +2086,20 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             // Nothing newly revealed (the common case behind the front).
             return;
         }
+        if self.record {
+            let (ia, ib) = (self.logged(a), self.logged(b));
+            self.events.push(Event::Span(ia, ib, wall));
+        } else {
+            self.reveal(a, b, wall, lo, hi, false);
+        }
+        self.cov.add(lo, hi);
+    }
+
+    /// The rays of span a–b (elevations lo..hi) not revealed before: not
+    /// done and not covered (by the coverage, or with `replay` by a single
+    /// point of [`Self::replay`]).
+    #[inline(always)]
+    fn reveal(&mut self, a: &Sample, b: &Sample, wall: bool, lo: f64, hi: f64, replay: bool) {
         // Rays of the bin with θ in [lo, hi] (sorted by θ).
         // The first ray with θ ≥ lo, walked to from the previous span's
         // (consecutive spans share an end).
@@ -1701,7 +2116,12 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut sp = None;
         while k < self.rows.len() && self.rows[k] <= hi {
             let th = self.rows[k];
-            if !self.done[k] && !self.cov.contains(th) {
+            let covered = if replay {
+                self.points.contains(&th)
+            } else {
+                self.cov.contains(th)
+            };
+            if !self.done[k] && !covered {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
@@ -1711,7 +2131,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             }
             k += 1;
         }
-        self.cov.add(lo, hi);
     }
 
     #[inline]
@@ -1897,6 +2316,76 @@ mod tests {
     use super::*;
     use crate::camera::{Projection, View};
 
+    /// A render whose bins are swept before their rays exist (rays only up
+    /// to the covered elevations, spans replayed) holds exactly the pixels,
+    /// bit for bit, of one whose bins have all their rays during the sweep:
+    /// views from above, level, straight down (the vanishing point of the
+    /// verticals in the image), sub-pixel offsets, exact solve on and off.
+    #[test]
+    fn two_pass_bins_equal_bins_with_all_rays() {
+        let d = crate::surface::Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+        let f = crate::source::ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, d).unwrap();
+        let sh = crate::shade::Shading::default();
+        let mut compared = 0;
+        for (el, az, dist, w, h) in [
+            (30.0, 40.0, 24.0, 96, 80),
+            (8.0, 200.0, 12.0, 70, 41),
+            (89.5, 10.0, 14.0, 48, 52),
+            (55.0, 310.0, 9.0, 61, 64),
+        ] {
+            let view = View {
+                elevation: el,
+                azimuth: az,
+                projection: Projection::Perspective {
+                    distance: dist,
+                    fov: 45.0,
+                },
+                target: DVec3::ZERO,
+            };
+            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            for refine in [true, false] {
+                let opts = super::super::FloatingOptions {
+                    refine,
+                    ..Default::default()
+                };
+                let ctx = Ctx {
+                    cam: &cam,
+                    frame: super::super::sampling::Frame::new(&cam, d),
+                    field: &f,
+                    shading: &sh,
+                    opts: &opts,
+                    refine,
+                    fallback: true,
+                };
+                for off in [(0.0, 0.0), (0.25, -0.375)] {
+                    let pixels = |two_pass: bool| {
+                        let (lists, _) =
+                            render_radial_with(&ctx, off, None, &Cancel::new(), two_pass).unwrap();
+                        let mut all: Vec<(usize, [u64; 9], i8, bool)> = lists
+                            .into_iter()
+                            .flatten()
+                            .map(|(k, p)| {
+                                let b = [
+                                    p.depth, p.n.x, p.n.y, p.n.z, p.uv.x, p.uv.y, p.inten, p.cover,
+                                    0.0,
+                                ]
+                                .map(f64::to_bits);
+                                (k, b, p.side, p.set)
+                            })
+                            .collect();
+                        all.sort_unstable();
+                        all
+                    };
+                    let (a, b) = (pixels(true), pixels(false));
+                    assert!(!a.is_empty(), "view ({el}, {az}): nothing seen");
+                    assert_eq!(a, b, "view ({el}, {az}), refine {refine}, offset {off:?}");
+                    compared += a.len();
+                }
+            }
+        }
+        assert!(compared > 10_000);
+    }
+
     /// Each bin's generated rays are the pixels whose ray [`Bins::of`]
     /// puts in it, every pixel in exactly one bin among the candidates,
     /// with `Camera::ray`'s elevation bit for bit (the sweeps depend on
@@ -1904,6 +2393,7 @@ mod tests {
     /// in the image, the vanishing point inside it, bins wide and narrow.
     #[test]
     fn bin_runs_are_the_bins_of_the_rays() {
+        let mut wedges_checked = 0;
         for (el, az, w, h, nb) in [
             (30.0, 40.0, 37, 23, 1000),
             (30.0, 40.0, 64, 48, 100_000),
@@ -1935,9 +2425,42 @@ mod tests {
                 let groups = runs.groups(&cands);
                 assert_eq!(groups.iter().map(|g| g.1 - g.0).sum::<usize>(), cands.len());
                 for (g0, g1) in groups {
-                    runs.group_rays(g0, g1, &mut gs);
+                    runs.group_rays(g0, g1, None, &mut gs);
                     for b in g0..g1 {
                         let rays = &gs.lists[b - g0];
+                        if !rays.is_empty() && nb >= bin_count(&cam) {
+                            wedges_checked += 1;
+                            // The bin's wedge holds its rays' elevations.
+                            let phi = -std::f64::consts::PI
+                                + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
+                            let (lo, hi) =
+                                runs.wedge(phi).expect("a bin with rays meets the image");
+                            for r in rays {
+                                assert!(r.theta >= lo && r.theta <= hi, "view ({el}, {az}) nb {nb} bin {b} ray {} theta {} wedge {lo} {hi}", r.k, r.theta);
+                            }
+                        }
+                        if !rays.is_empty() && nb >= bin_count(&cam) && !runs.exact_only {
+                            // Generated up to an elevation (half its rays):
+                            // every ray of the bin below it is among them.
+                            let phi = -std::f64::consts::PI
+                                + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
+                            let range = runs.wedge(phi).expect("wedge");
+                            let mut th: Vec<f64> = rays.iter().map(|r| r.theta).collect();
+                            th.sort_by(f64::total_cmp);
+                            let top = th[th.len() / 2];
+                            let mut rows = vec![None; g1 - g0];
+                            rows[b - g0] =
+                                runs.rows_below(DVec2::new(phi.cos(), phi.sin()), top, range);
+                            let mut capped = GroupScratch::default();
+                            runs.group_rays(g0, g1, Some(&rows), &mut capped);
+                            for r in rays.iter().filter(|r| r.theta <= top) {
+                                assert!(
+                                    capped.lists[b - g0].iter().any(|c| c.k == r.k),
+                                    "view ({el}, {az}) bin {b} ray {}",
+                                    r.k
+                                );
+                            }
+                        }
                         for ray in rays {
                             let k = ray.k as usize;
                             assert_eq!(seen[k], usize::MAX, "pixel {k} twice");
@@ -1960,5 +2483,6 @@ mod tests {
                 }
             }
         }
+        assert!(wedges_checked > 1000);
     }
 }
