@@ -202,6 +202,9 @@ fn insert_desc_in(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
     insert_ordered::<true>(h, q, bx);
 }
 
+/// Vertices [`insert_ordered`] scans from the near end before bisecting.
+const SCAN: usize = 8;
+
 /// The general insertion into a hull sorted by increasing w, or by
 /// decreasing w when `DESC` (every orientation then flips sign).
 #[inline]
@@ -222,7 +225,23 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
         }
     };
     let n = h.len();
-    let mut pos = h.partition_point(|v| if DESC { v.w > q.w } else { v.w < q.w });
+    // The first vertex not before q (w ≥ q.w, or ≤ when DESC). In a merge
+    // (DESC) a point that is not the nearest most often falls a few
+    // vertices from the near end: a bounded scan from there, then
+    // bisection of the rest.
+    let mut pos;
+    if DESC {
+        pos = n;
+        while pos > 0 && h[pos - 1].w <= q.w {
+            pos -= 1;
+            if n - pos == SCAN {
+                pos = h[..pos].partition_point(|v| v.w > q.w);
+                break;
+            }
+        }
+    } else {
+        pos = h.partition_point(|v| v.w < q.w);
+    }
     let mut end = pos; // h[pos..end] will be replaced by q
     if pos < n && h[pos].w == q.w {
         if h[pos].zz >= q.zz {
