@@ -567,6 +567,36 @@ pub struct Work {
     last: Option<(usize, usize, u64, u64)>,
 }
 
+impl Work {
+    /// Room for `n` points in every buffer. Buffers too small are replaced
+    /// by fresh ones (their contents dropped, so the next sector does not
+    /// follow on from the last) backed by huge pages where the system
+    /// offers them: the gathers and scatters by a⊥ or b⊥ order touch a
+    /// different 4 KiB page at almost every step, and miss the TLB.
+    fn reserve(&mut self, n: usize) {
+        if self.src.capacity() >= n {
+            return;
+        }
+        fn fresh<T>(v: &mut Vec<T>, n: usize) {
+            *v = Vec::with_capacity(n);
+            crate::scratch::advise_huge(v.as_ptr(), v.capacity());
+        }
+        fresh(&mut self.ids, n);
+        fresh(&mut self.a, n);
+        fresh(&mut self.b, n);
+        fresh(&mut self.pa, n);
+        fresh(&mut self.order, n);
+        fresh(&mut self.by_b, n);
+        fresh(&mut self.src, n);
+        fresh(&mut self.kin, n);
+        fresh(&mut self.dst, n);
+        fresh(&mut self.sort.bucket, n);
+        fresh(&mut self.sort.pairs, n);
+        fresh(&mut self.sort.sorted, n);
+        self.last = None;
+    }
+}
+
 /// The best of `best` (`ABSENT`: none) and `c` for `p` (exact; ties to the
 /// nearer point), for points inside the box of `bx`.
 #[inline(always)]
@@ -771,6 +801,7 @@ pub fn sector_with(
     progress: &Progress,
     w: &mut Work,
 ) -> Result<()> {
+    w.reserve(t.len());
     t.split_no_data(plane, &mut w.ids);
     let n = w.ids.len();
     if n == 0 {
