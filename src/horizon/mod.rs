@@ -491,10 +491,6 @@ pub fn compute(t: &Terrain, o: &Options, cancel: &Cancel, progress: &Progress) -
     if n == 0 {
         return Ok(out);
     }
-    if o.method == Method::Stewart {
-        // each plane is written in a⊥ order, far from its own
-        crate::scratch::advise_huge(out.as_ptr(), out.len());
-    }
     if o.method == Method::Brute {
         brute::all(t, o, &mut out, cancel, progress)?;
         if o.near_vertex {
