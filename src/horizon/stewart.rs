@@ -449,13 +449,12 @@ const ABSENT: Proj = Proj {
     zz: f64::NAN,
 };
 
-/// The upper hull of one node (vertices by decreasing w), with the bounds of every point inserted so
-/// far: smallest and largest w, largest Z (the extreme points of a set are
-/// vertices of its hull).
+/// The upper hull of one node (vertices by decreasing w), with the largest
+/// Z of every point inserted so far (the extreme points of a set are
+/// vertices of its hull: its smallest and largest w are those of the
+/// hull's ends).
 struct Hull {
     h: Vec<Proj>,
-    wmin: f64,
-    wmax: f64,
     zmax: f64,
     /// The sector's box (every point's w and Z inside it).
     bx: BoxFilter,
@@ -468,8 +467,6 @@ struct Hull {
 impl Hull {
     fn clear(&mut self) {
         self.h.clear();
-        self.wmin = f64::INFINITY;
-        self.wmax = f64::NEG_INFINITY;
         self.zmax = f64::NEG_INFINITY;
         self.guess = 0;
     }
@@ -477,8 +474,6 @@ impl Hull {
     #[inline(always)]
     fn add(&mut self, q: Proj) {
         // (plain comparisons: every coordinate is a number)
-        self.wmin = if q.w < self.wmin { q.w } else { self.wmin };
-        self.wmax = if q.w > self.wmax { q.w } else { self.wmax };
         self.zmax = if q.zz > self.zmax { q.zz } else { self.zmax };
         insert_desc_in(&mut self.h, q, self.bx);
     }
@@ -496,12 +491,12 @@ impl Hull {
     /// needs w_q > w_p for every q, which w_min > w_p ensures.)
     #[inline(always)]
     fn cannot_beat(&self, p: Proj, best: Proj) -> bool {
-        let cw = if self.zmax >= p.zz {
-            self.wmin
-        } else {
-            self.wmax
+        let (wmax, wmin) = match (self.h.first(), self.h.last()) {
+            (Some(far), Some(near)) => (far.w, near.w),
+            _ => return false,
         };
-        self.wmin > p.w
+        let cw = if self.zmax >= p.zz { wmin } else { wmax };
+        wmin > p.w
             && best.w > p.w
             && self
                 .bx
@@ -527,8 +522,6 @@ impl Default for Hull {
     fn default() -> Hull {
         let mut h = Hull {
             h: Vec::new(),
-            wmin: 0.0,
-            wmax: 0.0,
             zmax: 0.0,
             bx: BoxFilter::NONE,
             guess: 0,
