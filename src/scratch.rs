@@ -235,6 +235,32 @@ impl Mapping {
     }
 }
 
+/// Ask for huge pages behind the whole 2 MiB pages of the `len` values
+/// from `ptr` (Linux, transparent huge pages in `madvise` or `always`
+/// mode), for memory not touched yet: for large arrays read or written in
+/// an order that meets a different 4 KiB page at almost every step (a TLB
+/// miss each). A hint: no value changes, and a failure leaves ordinary
+/// pages. The values need not be initialised (a `Vec`'s capacity).
+pub fn advise_huge<T>(ptr: *const T, len: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 1 << 21;
+        let a = ptr as usize;
+        let bytes = len.saturating_mul(std::mem::size_of::<T>());
+        let (start, end) = (
+            a.next_multiple_of(HUGE),
+            a.saturating_add(bytes) / HUGE * HUGE,
+        );
+        if end > start {
+            // SAFETY: [start, end) lies inside the caller's allocation of
+            // `len` values; the advice changes no contents.
+            unsafe { libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (ptr, len);
+}
+
 /// Fault in the pages of `buf` in one system call (Linux
 /// `MADV_POPULATE_WRITE`, kernel 5.14+) rather than one page fault per 4 KiB
 /// page as they are first written: for a fresh output array about to be

@@ -202,6 +202,9 @@ fn insert_desc_in(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
     insert_ordered::<true>(h, q, bx);
 }
 
+/// Vertices [`insert_ordered`] scans from the near end before bisecting.
+const SCAN: usize = 8;
+
 /// The general insertion into a hull sorted by increasing w, or by
 /// decreasing w when `DESC` (every orientation then flips sign).
 #[inline]
@@ -222,7 +225,23 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
         }
     };
     let n = h.len();
-    let mut pos = h.partition_point(|v| if DESC { v.w > q.w } else { v.w < q.w });
+    // The first vertex not before q (w ≥ q.w, or ≤ when DESC). In a merge
+    // (DESC) a point that is not the nearest most often falls a few
+    // vertices from the near end: a bounded scan from there, then
+    // bisection of the rest.
+    let mut pos;
+    if DESC {
+        pos = n;
+        while pos > 0 && h[pos - 1].w <= q.w {
+            pos -= 1;
+            if n - pos == SCAN {
+                pos = h[..pos].partition_point(|v| v.w > q.w);
+                break;
+            }
+        }
+    } else {
+        pos = h.partition_point(|v| v.w < q.w);
+    }
     let mut end = pos; // h[pos..end] will be replaced by q
     if pos < n && h[pos].w == q.w {
         if h[pos].zz >= q.zz {
@@ -430,13 +449,12 @@ const ABSENT: Proj = Proj {
     zz: f64::NAN,
 };
 
-/// The upper hull of one node (vertices by decreasing w), with the bounds of every point inserted so
-/// far: smallest and largest w, largest Z (the extreme points of a set are
-/// vertices of its hull).
+/// The upper hull of one node (vertices by decreasing w), with the largest
+/// Z of every point inserted so far (the extreme points of a set are
+/// vertices of its hull: its smallest and largest w are those of the
+/// hull's ends).
 struct Hull {
     h: Vec<Proj>,
-    wmin: f64,
-    wmax: f64,
     zmax: f64,
     /// The sector's box (every point's w and Z inside it).
     bx: BoxFilter,
@@ -449,8 +467,6 @@ struct Hull {
 impl Hull {
     fn clear(&mut self) {
         self.h.clear();
-        self.wmin = f64::INFINITY;
-        self.wmax = f64::NEG_INFINITY;
         self.zmax = f64::NEG_INFINITY;
         self.guess = 0;
     }
@@ -458,8 +474,6 @@ impl Hull {
     #[inline(always)]
     fn add(&mut self, q: Proj) {
         // (plain comparisons: every coordinate is a number)
-        self.wmin = if q.w < self.wmin { q.w } else { self.wmin };
-        self.wmax = if q.w > self.wmax { q.w } else { self.wmax };
         self.zmax = if q.zz > self.zmax { q.zz } else { self.zmax };
         insert_desc_in(&mut self.h, q, self.bx);
     }
@@ -477,12 +491,12 @@ impl Hull {
     /// needs w_q > w_p for every q, which w_min > w_p ensures.)
     #[inline(always)]
     fn cannot_beat(&self, p: Proj, best: Proj) -> bool {
-        let cw = if self.zmax >= p.zz {
-            self.wmin
-        } else {
-            self.wmax
+        let (wmax, wmin) = match (self.h.first(), self.h.last()) {
+            (Some(far), Some(near)) => (far.w, near.w),
+            _ => return false,
         };
-        self.wmin > p.w
+        let cw = if self.zmax >= p.zz { wmin } else { wmax };
+        wmin > p.w
             && best.w > p.w
             && self
                 .bx
@@ -508,8 +522,6 @@ impl Default for Hull {
     fn default() -> Hull {
         let mut h = Hull {
             h: Vec::new(),
-            wmin: 0.0,
-            wmax: 0.0,
             zmax: 0.0,
             bx: BoxFilter::NONE,
             guess: 0,
@@ -546,6 +558,36 @@ pub struct Work {
     /// computation, so the array's address is only ever compared within
     /// one terrain's computation.
     last: Option<(usize, usize, u64, u64)>,
+}
+
+impl Work {
+    /// Room for `n` points in every buffer. Buffers too small are replaced
+    /// by fresh ones (their contents dropped, so the next sector does not
+    /// follow on from the last) backed by huge pages where the system
+    /// offers them: the gathers and scatters by a⊥ or b⊥ order touch a
+    /// different 4 KiB page at almost every step, and miss the TLB.
+    fn reserve(&mut self, n: usize) {
+        if self.src.capacity() >= n {
+            return;
+        }
+        fn fresh<T>(v: &mut Vec<T>, n: usize) {
+            *v = Vec::with_capacity(n);
+            crate::scratch::advise_huge(v.as_ptr(), v.capacity());
+        }
+        fresh(&mut self.ids, n);
+        fresh(&mut self.a, n);
+        fresh(&mut self.b, n);
+        fresh(&mut self.pa, n);
+        fresh(&mut self.order, n);
+        fresh(&mut self.by_b, n);
+        fresh(&mut self.src, n);
+        fresh(&mut self.kin, n);
+        fresh(&mut self.dst, n);
+        fresh(&mut self.sort.bucket, n);
+        fresh(&mut self.sort.pairs, n);
+        fresh(&mut self.sort.sorted, n);
+        self.last = None;
+    }
 }
 
 /// The best of `best` (`ABSENT`: none) and `c` for `p` (exact; ties to the
@@ -752,6 +794,7 @@ pub fn sector_with(
     progress: &Progress,
     w: &mut Work,
 ) -> Result<()> {
+    w.reserve(t.len());
     t.split_no_data(plane, &mut w.ids);
     let n = w.ids.len();
     if n == 0 {
