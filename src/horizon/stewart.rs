@@ -432,8 +432,10 @@ pub fn sort_runs(k2: &[f64], out: &mut [u32], runs: &[(u32, u32)]) {
 /// most `BLOCK`/2 ranks) keep no hull. Inside a block the covering sets met
 /// from rank k are the block's processed points of rank > k, whose maximum is
 /// taken directly: the tangent of a hull is the maximum of the points it was
-/// built from (§IV-B). 32 measured faster than 16 and as fast as 64.
+/// built from (§IV-B). 32 measured faster than 16. At most 64: a block's
+/// processed ranks are the bits of one u64.
 const BLOCK: usize = 32;
+const _: () = assert!(BLOCK <= 64);
 
 /// A point on its way through the levels: its projection, its best horizon
 /// point so far (`ABSENT`: none) and its a⊥ rank (processing order).
@@ -613,7 +615,8 @@ fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
         let k = k as usize % BLOCK;
         let p = rec.p;
         let mut best = rec.best;
-        let mut rest = done >> (k + 1);
+        // (k = 63 shifts every bit out.)
+        let mut rest = done.checked_shr(k as u32 + 1).unwrap_or(0);
         let mut kk = k + 1;
         while rest != 0 {
             let step = rest.trailing_zeros() as usize;
