@@ -165,7 +165,7 @@ fn render_radial_with(
                         };
                         let (th0, th1) =
                             wedge.unwrap_or((sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta));
-                        sw.ppr = bin_ppr(cam, phi, th0, th1);
+                        (sw.ppr, sw.rate) = bin_ppr(cam, phi, th0, th1);
                         sw.srange = (th0, th1);
                         if ctx.opts.coverage {
                             sw.start_coverage();
@@ -345,7 +345,7 @@ fn two_pass_bins<'c, 'a>(
         buf.clear();
         sw.reset(phi, buf);
         sw.off = off;
-        sw.ppr = bin_ppr(cam, phi, th0, th1);
+        (sw.ppr, sw.rate) = bin_ppr(cam, phi, th0, th1);
         sw.srange = (th0, th1);
         sw.record = true;
         todo.push(b);
@@ -420,24 +420,79 @@ impl Marks {
 /// Screen pixels per unit of the pseudo-elevation s = tan(θ/2) (see
 /// [`elevation`]) along the plane of azimuth φ, over the elevations
 /// [s0, s1] of a bin's rays (probed, with a 10 % margin), so that the
-/// sweep's row gaps measure pixels on the screen.
-fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
+/// sweep's row gaps measure pixels on the screen; and the local rate (see
+/// [`PxRate`]).
+fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> (f64, PxRate) {
     let (sp, cp) = phi.sin_cos();
     let at = |s: f64| cam.to_screen(cam.eye + direction(DVec2::new(cp, sp), s));
     let delta = 1e-6;
     let mut m: f64 = 0.0;
-    for k in 0..=4 {
-        let th = th0 + (th1 - th0) * k as f64 / 4.0;
+    let mut rate = [f64::NAN; PxRate::NODES];
+    for (k, r) in rate.iter_mut().enumerate() {
+        let th = th0 + (th1 - th0) * k as f64 / (PxRate::NODES - 1) as f64;
         let (p1, p2) = (at(th - 0.5 * delta), at(th + 0.5 * delta));
         let ds = (p2.x - p1.x).hypot(p2.y - p1.y) / delta;
         if ds.is_finite() {
             m = m.max(ds);
+            *r = ds;
         }
     }
-    if m > 0.0 {
-        1.1 * m
+    if m > 0.0 && th1 > th0 && rate.iter().all(|r| r.is_finite()) {
+        // The nodes as fractions of the largest rate: with the same 10 %
+        // margin, pixels per unit of `rho` at each node.
+        rate.iter_mut().for_each(|r| *r /= m);
+        let ppr = 1.1 * m;
+        let inv = (PxRate::NODES - 1) as f64 / ((th1 - th0) * ppr);
+        (
+            ppr,
+            PxRate {
+                r0: th0 * ppr,
+                inv,
+                rate,
+            },
+        )
+    } else if m > 0.0 {
+        (1.1 * m, PxRate::default())
     } else {
-        1.5 * cam.focal
+        (1.5 * cam.focal, PxRate::default())
+    }
+}
+
+/// Screen pixels per unit of a bin's `rho` (elevation times
+/// [`bin_ppr`]) as a function of `rho`: the rate of the
+/// screen along the bin's plane falls away from the top of the image (by
+/// 20 % or more at the bottom of a view looking down), and the sweep's step
+/// control measures its gaps in pixels. Linear between the probed nodes,
+/// constant beyond them; at most 1 (`rho` measures pixels at the largest
+/// rate).
+#[derive(Debug, Clone, Copy)]
+struct PxRate {
+    /// `rho` at the first node, nodes per unit of `rho`.
+    r0: f64,
+    inv: f64,
+    rate: [f64; PxRate::NODES],
+}
+
+impl Default for PxRate {
+    fn default() -> Self {
+        PxRate {
+            r0: 0.0,
+            inv: 0.0,
+            rate: [1.0; PxRate::NODES],
+        }
+    }
+}
+
+impl PxRate {
+    const NODES: usize = 5;
+
+    /// Pixels per unit of `rho` at `rho` = r.
+    #[inline]
+    fn at(&self, r: f64) -> f64 {
+        let x = ((r - self.r0) * self.inv).clamp(0.0, (Self::NODES - 1) as f64);
+        let k = (x as usize).min(Self::NODES - 2);
+        let f = x - k as f64;
+        self.rate[k] + f * (self.rate[k + 1] - self.rate[k])
     }
 }
 
@@ -1112,6 +1167,9 @@ struct RunState {
     hstep: f64,
     h_max: f64,
     halvings: u32,
+    /// Local pixels per unit of `rho` at the previous sample (see
+    /// [`PxRate`]).
+    rate: f64,
     /// Elevation range of the bin's rays (units of `rho`).
     th_lo: f64,
     th_hi: f64,
@@ -1416,6 +1474,8 @@ struct RadialSweep<'c, 'a> {
     failed: Vec<u32>,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
+    /// Local pixels per unit of `rho` (see [`PxRate`]).
+    rate: PxRate,
     /// Pseudo-elevations of the bin's wedge (see [`Runs::wedge`]): its rays
     /// lie within them.
     srange: (f64, f64),
@@ -1467,6 +1527,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             solver: Default::default(),
             failed: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
+            rate: PxRate::default(),
             srange: (-1.0, 1.0),
             ahead: Ahead::default(),
             cursor: 0,
@@ -1498,6 +1559,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.stats = ColumnStats::default();
         self.jobs.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
+        self.rate = PxRate::default();
         self.srange = (-1.0, 1.0);
         // (A new sweep's look-ahead, its buffers kept.)
         self.ahead.reset();
@@ -1871,7 +1933,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let (h_max0, hstep) = match &st.slots[st.p] {
             Some(a) => {
                 let cap = opts.max_step() * self.fp_at(a).max(1e-12 * scale);
-                let r = a.drho_dt.abs();
+                // (the elevation rate in local pixels)
+                st.rate = self.rate.at(a.rho);
+                let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                 if !deep && r > 0.0 && r.is_finite() {
                     (
@@ -1940,7 +2004,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             // By reference: a sample is large, and most steps move none.
             match (prev, cand) {
                 (Some(a), Some(b)) => {
-                    let gap = (b.rho - a.rho).abs();
+                    // The gap in local pixels (the larger rate of its ends).
+                    let gap = (b.rho - a.rho).abs() * st.rate.max(self.rate.at(b.rho));
                     let hidden = gap > opts.step() && self.hidden(a, b);
                     if gap > opts.step()
                         && !hidden
