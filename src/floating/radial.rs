@@ -489,8 +489,13 @@ impl PxRate {
     /// Pixels per unit of `rho` at `rho` = r.
     #[inline]
     fn at(&self, r: f64) -> f64 {
-        let x = ((r - self.r0) * self.inv).clamp(0.0, (Self::NODES - 1) as f64);
-        let k = (x as usize).min(Self::NODES - 2);
+        // (comparisons that send NaN to the first node; a cast of a value
+        // in [0, NODES − 2])
+        let x = (r - self.r0) * self.inv;
+        let x = if x > 0.0 { x } else { 0.0 };
+        let top = (Self::NODES - 1) as f64;
+        let x = if x < top { x } else { top };
+        let k = x.min(top - 1.0) as u32 as usize;
         let f = x - k as f64;
         self.rate[k] + f * (self.rate[k + 1] - self.rate[k])
     }
