@@ -2386,6 +2386,63 @@ mod tests {
     use super::*;
     use crate::camera::{Projection, View};
 
+    /// The sweep's local pixel rate ([`PxRate`]) never understates the
+    /// screen's rate along a bin's plane by more than the 10 % margin of
+    /// [`bin_ppr`], and stays at most 1 (`rho` measures pixels at the
+    /// largest probed rate): every bin of views from above, level and
+    /// nearly straight down, at elevations across its wedge and beyond.
+    #[test]
+    fn local_pixel_rate_bounds_the_screen_rate() {
+        use std::f64::consts::PI;
+        let mut checked = 0;
+        for (el, az, dist, w, h) in [
+            (30.0, 40.0, 24.0, 480, 477),
+            (8.0, 200.0, 12.0, 70, 41),
+            (75.0, 10.0, 14.0, 48, 52),
+        ] {
+            let view = View {
+                elevation: el,
+                azimuth: az,
+                projection: Projection::Perspective {
+                    distance: dist,
+                    fov: 45.0,
+                },
+                target: DVec3::ZERO,
+            };
+            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            let nb = 97;
+            let bins = Bins::new(nb);
+            let runs = Runs::new(&cam, &bins, (0.0, 0.0));
+            for b in 0..nb {
+                let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                let Some((th0, th1)) = runs.wedge(phi) else {
+                    continue;
+                };
+                let (ppr, rate) = bin_ppr(&cam, phi, th0, th1);
+                let c = DVec2::new(phi.cos(), phi.sin());
+                let at = |s: f64| cam.to_screen(cam.eye + direction(c, s));
+                for k in -4..=44 {
+                    let s = th0 + (th1 - th0) * k as f64 / 40.0;
+                    let (p1, p2) = (at(s - 5e-7), at(s + 5e-7));
+                    let true_rate = (p2.x - p1.x).hypot(p2.y - p1.y) / 1e-6 / ppr;
+                    let r = rate.at(s * ppr);
+                    assert!(
+                        r > 0.0 && r <= 1.0 + 1e-12,
+                        "view ({el}, {az}) bin {b}: {r}"
+                    );
+                    if (0..=40).contains(&k) && true_rate.is_finite() {
+                        assert!(
+                            true_rate <= r * (1.0 + 1e-6),
+                            "view ({el}, {az}) bin {b} s {s}: {true_rate} > {r}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+
     /// A render whose bins are swept before their rays exist (rays only up
     /// to the covered elevations, spans replayed) holds exactly the pixels,
     /// bit for bit, of one whose bins have all their rays during the sweep:
