@@ -362,8 +362,8 @@ fn two_pass_bins<'c, 'a>(
     rows.resize(g1 - g0, None);
     for (&b, (sw, _)) in todo.iter().zip(live.iter()) {
         rows[b - g0] = sw
-            .covered_top()
-            .and_then(|top| runs.rows_below(sw.eh, top, sw.srange));
+            .covered()
+            .and_then(|cov| runs.rows_within(sw.eh, cov, sw.srange));
     }
     runs.group_rays(g0, g1, Some(&rows), &mut ls.gs);
     ls.rows = rows;
@@ -751,18 +751,24 @@ impl<'b> Runs<'b> {
 
     /// The rows (indices in [`Self::group_rays`]' order) on which the bin
     /// of azimuth (cos φ, sin φ) = `c` and wedge `srange` (see
-    /// [`Self::wedge`]) may have pixels with pseudo-elevation up to `top`
-    /// (None: no such pixel). Along the bin's screen line the elevation is
-    /// monotone, and its pixels lie within about half a pixel of that line:
-    /// the row where the line reaches `top`, three rows further for
-    /// safety, bounds them.
-    fn rows_below(&self, c: DVec2, top: f64, srange: (f64, f64)) -> Option<(usize, usize)> {
+    /// [`Self::wedge`]) may have pixels with pseudo-elevation in
+    /// [`bottom`, `top`] = `within` (None: no such pixel). Along the bin's
+    /// screen line the elevation is monotone, and its pixels lie within
+    /// about half a pixel of that line: the rows where the line reaches
+    /// `bottom` and `top`, three rows further for safety, bound them.
+    fn rows_within(
+        &self,
+        c: DVec2,
+        within: (f64, f64),
+        srange: (f64, f64),
+    ) -> Option<(usize, usize)> {
         let h = self.h;
         let all = Some((0, h - 1));
-        if top.is_nan() || top >= srange.1 {
+        let (bottom, top) = within;
+        if top.is_nan() || bottom.is_nan() {
             return all;
         }
-        if top < srange.0 {
+        if top < srange.0 || bottom > srange.1 {
             return None;
         }
         let up = self.up.z >= 0.0;
@@ -783,20 +789,33 @@ impl<'b> Runs<'b> {
                 i
             }
         };
-        let (r_lo, r_hi, r_top) = (at(srange.0), at(srange.1), at(top));
-        if !(r_lo.is_finite() && r_hi.is_finite() && r_top.is_finite()) {
+        let (r_lo, r_hi) = (at(srange.0), at(srange.1));
+        if !(r_lo.is_finite() && r_hi.is_finite()) || r_hi == r_lo {
             return all;
         }
+        // The rows at the two bounds (an end of the wedge where the bound
+        // lies beyond it, or cannot be told).
+        let row = |s: f64, end: f64| {
+            if s <= srange.0 || s >= srange.1 {
+                return end;
+            }
+            let r = at(s);
+            if r.is_finite() {
+                r
+            } else {
+                end
+            }
+        };
         let last = (h - 1) as f64;
-        if r_hi > r_lo {
-            let end = (r_top.ceil() + 3.0).clamp(0.0, last);
-            Some((0, end as usize))
-        } else if r_hi < r_lo {
-            let start = (r_top.floor() - 3.0).clamp(0.0, last);
-            Some((start as usize, h - 1))
+        // Row indices grow with the elevation (r_hi > r_lo) or fall.
+        let (r_a, r_b) = if r_hi > r_lo {
+            (row(bottom, 0.0), row(top, last))
         } else {
-            all
-        }
+            (row(top, 0.0), row(bottom, last))
+        };
+        let start = (r_a.floor() - 3.0).clamp(0.0, last);
+        let end = (r_b.ceil() + 3.0).clamp(0.0, last);
+        Some((start as usize, end as usize))
     }
 
     /// The screen y of row i (as [`crate::camera::Camera::pixel_to_screen`]).
@@ -1081,7 +1100,7 @@ struct Lockstep<'c, 'a> {
     gs: GroupScratch,
     sweeps: Vec<(RadialSweep<'c, 'a>, RunState)>,
     todo: Vec<usize>,
-    /// Each bin's generation rows (see [`Runs::rows_below`]).
+    /// Each bin's generation rows (see [`Runs::rows_within`]).
     rows: Vec<Option<(usize, usize)>>,
     eval: EvalScratch,
 }
@@ -1580,9 +1599,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         old
     }
 
-    /// The highest covered pseudo-elevation (None: nothing covered).
-    fn covered_top(&self) -> Option<f64> {
-        self.cov.top().map(|t| t / self.ppr)
+    /// The lowest and highest covered pseudo-elevations (None: nothing
+    /// covered).
+    fn covered(&self) -> Option<(f64, f64)> {
+        self.cov.extent().map(|(b, t)| (b / self.ppr, t / self.ppr))
     }
 
     /// After a recorded sweep: its coverage rebuilt on the bin's rays
@@ -2567,25 +2587,34 @@ mod tests {
                             }
                         }
                         if !rays.is_empty() && nb >= bin_count(&cam) && !runs.exact_only {
-                            // Generated up to an elevation (half its rays):
-                            // every ray of the bin below it is among them.
+                            // Generated between two elevations (up to half
+                            // its rays; its middle half): every ray of the
+                            // bin between them is among them.
                             let phi = -std::f64::consts::PI
                                 + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
                             let range = runs.wedge(phi).expect("wedge");
                             let mut th: Vec<f64> = rays.iter().map(|r| r.theta).collect();
                             th.sort_by(f64::total_cmp);
-                            let top = th[th.len() / 2];
-                            let mut rows = vec![None; g1 - g0];
-                            rows[b - g0] =
-                                runs.rows_below(DVec2::new(phi.cos(), phi.sin()), top, range);
-                            let mut capped = GroupScratch::default();
-                            runs.group_rays(g0, g1, Some(&rows), &mut capped);
-                            for r in rays.iter().filter(|r| r.theta <= top) {
-                                assert!(
-                                    capped.lists[b - g0].iter().any(|c| c.k == r.k),
-                                    "view ({el}, {az}) bin {b} ray {}",
-                                    r.k
+                            let n = th.len();
+                            for (bottom, top) in
+                                [(f64::NEG_INFINITY, th[n / 2]), (th[n / 4], th[3 * n / 4])]
+                            {
+                                let mut rows = vec![None; g1 - g0];
+                                rows[b - g0] = runs.rows_within(
+                                    DVec2::new(phi.cos(), phi.sin()),
+                                    (bottom, top),
+                                    range,
                                 );
+                                let mut capped = GroupScratch::default();
+                                runs.group_rays(g0, g1, Some(&rows), &mut capped);
+                                for r in rays.iter().filter(|r| r.theta >= bottom && r.theta <= top)
+                                {
+                                    assert!(
+                                        capped.lists[b - g0].iter().any(|c| c.k == r.k),
+                                        "view ({el}, {az}) bin {b} ray {} within {bottom} {top}",
+                                        r.k
+                                    );
+                                }
                             }
                         }
                         for ray in rays {
