@@ -144,17 +144,17 @@ impl Coverage {
     pub(super) fn interval(&self, x: f64) -> Option<(f64, f64)> {
         self.iv.iter().copied().find(|&(a, b)| x >= a && x <= b)
     }
-    /// The highest covered value (None: nothing covered; NaN where that
-    /// cannot be told).
-    pub(super) fn top(&self) -> Option<f64> {
-        let mut top: Option<f64> = None;
+    /// The lowest and highest covered values (None: nothing covered; NaN
+    /// where that cannot be told).
+    pub(super) fn extent(&self) -> Option<(f64, f64)> {
+        let mut ext: Option<(f64, f64)> = None;
         for &(a, b) in &self.iv {
             if a.is_nan() || b.is_nan() {
-                return Some(f64::NAN);
+                return Some((f64::NAN, f64::NAN));
             }
-            top = Some(top.map_or(b, |t| t.max(b)));
+            ext = Some(ext.map_or((a, b), |(lo, hi)| (lo.min(a), hi.max(b))));
         }
-        top
+        ext
     }
     pub(super) fn covers(&self, lo: f64, hi: f64) -> bool {
         self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)

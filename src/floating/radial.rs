@@ -165,7 +165,7 @@ fn render_radial_with(
                         };
                         let (th0, th1) =
                             wedge.unwrap_or((sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta));
-                        sw.ppr = bin_ppr(cam, phi, th0, th1);
+                        (sw.ppr, sw.rate) = bin_ppr(cam, phi, th0, th1);
                         sw.srange = (th0, th1);
                         if ctx.opts.coverage {
                             sw.start_coverage();
@@ -345,7 +345,7 @@ fn two_pass_bins<'c, 'a>(
         buf.clear();
         sw.reset(phi, buf);
         sw.off = off;
-        sw.ppr = bin_ppr(cam, phi, th0, th1);
+        (sw.ppr, sw.rate) = bin_ppr(cam, phi, th0, th1);
         sw.srange = (th0, th1);
         sw.record = true;
         todo.push(b);
@@ -362,8 +362,8 @@ fn two_pass_bins<'c, 'a>(
     rows.resize(g1 - g0, None);
     for (&b, (sw, _)) in todo.iter().zip(live.iter()) {
         rows[b - g0] = sw
-            .covered_top()
-            .and_then(|top| runs.rows_below(sw.eh, top, sw.srange));
+            .covered()
+            .and_then(|cov| runs.rows_within(sw.eh, cov, sw.srange));
     }
     runs.group_rays(g0, g1, Some(&rows), &mut ls.gs);
     ls.rows = rows;
@@ -420,24 +420,84 @@ impl Marks {
 /// Screen pixels per unit of the pseudo-elevation s = tan(θ/2) (see
 /// [`elevation`]) along the plane of azimuth φ, over the elevations
 /// [s0, s1] of a bin's rays (probed, with a 10 % margin), so that the
-/// sweep's row gaps measure pixels on the screen.
-fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> f64 {
+/// sweep's row gaps measure pixels on the screen; and the local rate (see
+/// [`PxRate`]).
+fn bin_ppr(cam: &crate::camera::Camera, phi: f64, th0: f64, th1: f64) -> (f64, PxRate) {
     let (sp, cp) = phi.sin_cos();
     let at = |s: f64| cam.to_screen(cam.eye + direction(DVec2::new(cp, sp), s));
     let delta = 1e-6;
     let mut m: f64 = 0.0;
-    for k in 0..=4 {
-        let th = th0 + (th1 - th0) * k as f64 / 4.0;
+    let mut rate = [f64::NAN; PxRate::NODES];
+    for (k, r) in rate.iter_mut().enumerate() {
+        let th = th0 + (th1 - th0) * k as f64 / (PxRate::NODES - 1) as f64;
         let (p1, p2) = (at(th - 0.5 * delta), at(th + 0.5 * delta));
         let ds = (p2.x - p1.x).hypot(p2.y - p1.y) / delta;
         if ds.is_finite() {
             m = m.max(ds);
+            *r = ds;
         }
     }
-    if m > 0.0 {
-        1.1 * m
+    if m > 0.0 && th1 > th0 && rate.iter().all(|r| r.is_finite()) {
+        // The nodes as fractions of the largest rate: with the same 10 %
+        // margin, pixels per unit of `rho` at each node.
+        rate.iter_mut().for_each(|r| *r /= m);
+        let ppr = 1.1 * m;
+        let inv = (PxRate::NODES - 1) as f64 / ((th1 - th0) * ppr);
+        (
+            ppr,
+            PxRate {
+                r0: th0 * ppr,
+                inv,
+                rate,
+            },
+        )
+    } else if m > 0.0 {
+        (1.1 * m, PxRate::default())
     } else {
-        1.5 * cam.focal
+        (1.5 * cam.focal, PxRate::default())
+    }
+}
+
+/// Screen pixels per unit of a bin's `rho` (elevation times
+/// [`bin_ppr`]) as a function of `rho`: the rate of the
+/// screen along the bin's plane falls away from the top of the image (by
+/// 20 % or more at the bottom of a view looking down), and the sweep's step
+/// control measures its gaps in pixels. Linear between the probed nodes,
+/// constant beyond them; at most 1 (`rho` measures pixels at the largest
+/// rate).
+#[derive(Debug, Clone, Copy)]
+struct PxRate {
+    /// `rho` at the first node, nodes per unit of `rho`.
+    r0: f64,
+    inv: f64,
+    rate: [f64; PxRate::NODES],
+}
+
+impl Default for PxRate {
+    fn default() -> Self {
+        PxRate {
+            r0: 0.0,
+            inv: 0.0,
+            rate: [1.0; PxRate::NODES],
+        }
+    }
+}
+
+impl PxRate {
+    const NODES: usize = 5;
+
+    /// Pixels per unit of `rho` at `rho` = r.
+    #[inline]
+    fn at(&self, r: f64) -> f64 {
+        // (comparisons that send NaN to the first node; a cast of a value
+        // in [0, NODES − 2])
+        let x = (r - self.r0) * self.inv;
+        let x = if x > 0.0 { x } else { 0.0 };
+        let top = (Self::NODES - 1) as f64;
+        let x = if x < top { x } else { top };
+        let k = x.min(top - 1.0) as u32 as usize;
+        let f = x - k as f64;
+        self.rate[k] + f * (self.rate[k + 1] - self.rate[k])
     }
 }
 
@@ -691,18 +751,24 @@ impl<'b> Runs<'b> {
 
     /// The rows (indices in [`Self::group_rays`]' order) on which the bin
     /// of azimuth (cos φ, sin φ) = `c` and wedge `srange` (see
-    /// [`Self::wedge`]) may have pixels with pseudo-elevation up to `top`
-    /// (None: no such pixel). Along the bin's screen line the elevation is
-    /// monotone, and its pixels lie within about half a pixel of that line:
-    /// the row where the line reaches `top`, three rows further for
-    /// safety, bounds them.
-    fn rows_below(&self, c: DVec2, top: f64, srange: (f64, f64)) -> Option<(usize, usize)> {
+    /// [`Self::wedge`]) may have pixels with pseudo-elevation in
+    /// [`bottom`, `top`] = `within` (None: no such pixel). Along the bin's
+    /// screen line the elevation is monotone, and its pixels lie within
+    /// about half a pixel of that line: the rows where the line reaches
+    /// `bottom` and `top`, three rows further for safety, bound them.
+    fn rows_within(
+        &self,
+        c: DVec2,
+        within: (f64, f64),
+        srange: (f64, f64),
+    ) -> Option<(usize, usize)> {
         let h = self.h;
         let all = Some((0, h - 1));
-        if top.is_nan() || top >= srange.1 {
+        let (bottom, top) = within;
+        if top.is_nan() || bottom.is_nan() {
             return all;
         }
-        if top < srange.0 {
+        if top < srange.0 || bottom > srange.1 {
             return None;
         }
         let up = self.up.z >= 0.0;
@@ -723,20 +789,33 @@ impl<'b> Runs<'b> {
                 i
             }
         };
-        let (r_lo, r_hi, r_top) = (at(srange.0), at(srange.1), at(top));
-        if !(r_lo.is_finite() && r_hi.is_finite() && r_top.is_finite()) {
+        let (r_lo, r_hi) = (at(srange.0), at(srange.1));
+        if !(r_lo.is_finite() && r_hi.is_finite()) || r_hi == r_lo {
             return all;
         }
+        // The rows at the two bounds (an end of the wedge where the bound
+        // lies beyond it, or cannot be told).
+        let row = |s: f64, end: f64| {
+            if s <= srange.0 || s >= srange.1 {
+                return end;
+            }
+            let r = at(s);
+            if r.is_finite() {
+                r
+            } else {
+                end
+            }
+        };
         let last = (h - 1) as f64;
-        if r_hi > r_lo {
-            let end = (r_top.ceil() + 3.0).clamp(0.0, last);
-            Some((0, end as usize))
-        } else if r_hi < r_lo {
-            let start = (r_top.floor() - 3.0).clamp(0.0, last);
-            Some((start as usize, h - 1))
+        // Row indices grow with the elevation (r_hi > r_lo) or fall.
+        let (r_a, r_b) = if r_hi > r_lo {
+            (row(bottom, 0.0), row(top, last))
         } else {
-            all
-        }
+            (row(top, 0.0), row(bottom, last))
+        };
+        let start = (r_a.floor() - 3.0).clamp(0.0, last);
+        let end = (r_b.ceil() + 3.0).clamp(0.0, last);
+        Some((start as usize, end as usize))
     }
 
     /// The screen y of row i (as [`crate::camera::Camera::pixel_to_screen`]).
@@ -1021,7 +1100,7 @@ struct Lockstep<'c, 'a> {
     gs: GroupScratch,
     sweeps: Vec<(RadialSweep<'c, 'a>, RunState)>,
     todo: Vec<usize>,
-    /// Each bin's generation rows (see [`Runs::rows_below`]).
+    /// Each bin's generation rows (see [`Runs::rows_within`]).
     rows: Vec<Option<(usize, usize)>>,
     eval: EvalScratch,
 }
@@ -1112,6 +1191,9 @@ struct RunState {
     hstep: f64,
     h_max: f64,
     halvings: u32,
+    /// Local pixels per unit of `rho` at the previous sample (see
+    /// [`PxRate`]).
+    rate: f64,
     /// Elevation range of the bin's rays (units of `rho`).
     th_lo: f64,
     th_hi: f64,
@@ -1416,6 +1498,8 @@ struct RadialSweep<'c, 'a> {
     failed: Vec<u32>,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
+    /// Local pixels per unit of `rho` (see [`PxRate`]).
+    rate: PxRate,
     /// Pseudo-elevations of the bin's wedge (see [`Runs::wedge`]): its rays
     /// lie within them.
     srange: (f64, f64),
@@ -1467,6 +1551,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             solver: Default::default(),
             failed: Vec::new(),
             ppr: 1.5 * ctx.cam.focal,
+            rate: PxRate::default(),
             srange: (-1.0, 1.0),
             ahead: Ahead::default(),
             cursor: 0,
@@ -1498,6 +1583,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.stats = ColumnStats::default();
         self.jobs.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
+        self.rate = PxRate::default();
         self.srange = (-1.0, 1.0);
         // (A new sweep's look-ahead, its buffers kept.)
         self.ahead.reset();
@@ -1513,9 +1599,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         old
     }
 
-    /// The highest covered pseudo-elevation (None: nothing covered).
-    fn covered_top(&self) -> Option<f64> {
-        self.cov.top().map(|t| t / self.ppr)
+    /// The lowest and highest covered pseudo-elevations (None: nothing
+    /// covered).
+    fn covered(&self) -> Option<(f64, f64)> {
+        self.cov.extent().map(|(b, t)| (b / self.ppr, t / self.ppr))
     }
 
     /// After a recorded sweep: its coverage rebuilt on the bin's rays
@@ -1871,7 +1958,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let (h_max0, hstep) = match &st.slots[st.p] {
             Some(a) => {
                 let cap = opts.max_step() * self.fp_at(a).max(1e-12 * scale);
-                let r = a.drho_dt.abs();
+                // (the elevation rate in local pixels)
+                st.rate = self.rate.at(a.rho);
+                let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                 if !deep && r > 0.0 && r.is_finite() {
                     (
@@ -1940,7 +2029,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             // By reference: a sample is large, and most steps move none.
             match (prev, cand) {
                 (Some(a), Some(b)) => {
-                    let gap = (b.rho - a.rho).abs();
+                    // The gap in local pixels (the larger rate of its ends).
+                    let gap = (b.rho - a.rho).abs() * st.rate.max(self.rate.at(b.rho));
                     let hidden = gap > opts.step() && self.hidden(a, b);
                     if gap > opts.step()
                         && !hidden
@@ -2316,6 +2406,63 @@ mod tests {
     use super::*;
     use crate::camera::{Projection, View};
 
+    /// The sweep's local pixel rate ([`PxRate`]) never understates the
+    /// screen's rate along a bin's plane by more than the 10 % margin of
+    /// [`bin_ppr`], and stays at most 1 (`rho` measures pixels at the
+    /// largest probed rate): every bin of views from above, level and
+    /// nearly straight down, at elevations across its wedge and beyond.
+    #[test]
+    fn local_pixel_rate_bounds_the_screen_rate() {
+        use std::f64::consts::PI;
+        let mut checked = 0;
+        for (el, az, dist, w, h) in [
+            (30.0, 40.0, 24.0, 480, 477),
+            (8.0, 200.0, 12.0, 70, 41),
+            (75.0, 10.0, 14.0, 48, 52),
+        ] {
+            let view = View {
+                elevation: el,
+                azimuth: az,
+                projection: Projection::Perspective {
+                    distance: dist,
+                    fov: 45.0,
+                },
+                target: DVec3::ZERO,
+            };
+            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            let nb = 97;
+            let bins = Bins::new(nb);
+            let runs = Runs::new(&cam, &bins, (0.0, 0.0));
+            for b in 0..nb {
+                let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                let Some((th0, th1)) = runs.wedge(phi) else {
+                    continue;
+                };
+                let (ppr, rate) = bin_ppr(&cam, phi, th0, th1);
+                let c = DVec2::new(phi.cos(), phi.sin());
+                let at = |s: f64| cam.to_screen(cam.eye + direction(c, s));
+                for k in -4..=44 {
+                    let s = th0 + (th1 - th0) * k as f64 / 40.0;
+                    let (p1, p2) = (at(s - 5e-7), at(s + 5e-7));
+                    let true_rate = (p2.x - p1.x).hypot(p2.y - p1.y) / 1e-6 / ppr;
+                    let r = rate.at(s * ppr);
+                    assert!(
+                        r > 0.0 && r <= 1.0 + 1e-12,
+                        "view ({el}, {az}) bin {b}: {r}"
+                    );
+                    if (0..=40).contains(&k) && true_rate.is_finite() {
+                        assert!(
+                            true_rate <= r * (1.0 + 1e-6),
+                            "view ({el}, {az}) bin {b} s {s}: {true_rate} > {r}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+
     /// A render whose bins are swept before their rays exist (rays only up
     /// to the covered elevations, spans replayed) holds exactly the pixels,
     /// bit for bit, of one whose bins have all their rays during the sweep:
@@ -2440,25 +2587,34 @@ mod tests {
                             }
                         }
                         if !rays.is_empty() && nb >= bin_count(&cam) && !runs.exact_only {
-                            // Generated up to an elevation (half its rays):
-                            // every ray of the bin below it is among them.
+                            // Generated between two elevations (up to half
+                            // its rays; its middle half): every ray of the
+                            // bin between them is among them.
                             let phi = -std::f64::consts::PI
                                 + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
                             let range = runs.wedge(phi).expect("wedge");
                             let mut th: Vec<f64> = rays.iter().map(|r| r.theta).collect();
                             th.sort_by(f64::total_cmp);
-                            let top = th[th.len() / 2];
-                            let mut rows = vec![None; g1 - g0];
-                            rows[b - g0] =
-                                runs.rows_below(DVec2::new(phi.cos(), phi.sin()), top, range);
-                            let mut capped = GroupScratch::default();
-                            runs.group_rays(g0, g1, Some(&rows), &mut capped);
-                            for r in rays.iter().filter(|r| r.theta <= top) {
-                                assert!(
-                                    capped.lists[b - g0].iter().any(|c| c.k == r.k),
-                                    "view ({el}, {az}) bin {b} ray {}",
-                                    r.k
+                            let n = th.len();
+                            for (bottom, top) in
+                                [(f64::NEG_INFINITY, th[n / 2]), (th[n / 4], th[3 * n / 4])]
+                            {
+                                let mut rows = vec![None; g1 - g0];
+                                rows[b - g0] = runs.rows_within(
+                                    DVec2::new(phi.cos(), phi.sin()),
+                                    (bottom, top),
+                                    range,
                                 );
+                                let mut capped = GroupScratch::default();
+                                runs.group_rays(g0, g1, Some(&rows), &mut capped);
+                                for r in rays.iter().filter(|r| r.theta >= bottom && r.theta <= top)
+                                {
+                                    assert!(
+                                        capped.lists[b - g0].iter().any(|c| c.k == r.k),
+                                        "view ({el}, {az}) bin {b} ray {} within {bottom} {top}",
+                                        r.k
+                                    );
+                                }
                             }
                         }
                         for ray in rays {
