@@ -175,22 +175,7 @@ fn render_radial_with(
                     for (sw, _) in sweeps.iter_mut() {
                         sw.solve();
                         sw.finish_coverage();
-                        let stats = std::mem::take(&mut sw.stats);
-                        if let Some(out) = direct {
-                            for (k, p) in &sw.out {
-                                // SAFETY: the bins partition the pixels and a bin
-                                // lists each of its pixels once, so no other thread
-                                // touches pixel k. Without coverage a bin lists set
-                                // pixels only.
-                                unsafe {
-                                    out.put_set(*k, p);
-                                    marks.put(*k, p);
-                                }
-                            }
-                            res.push((Vec::new(), stats));
-                        } else {
-                            res.push((std::mem::take(&mut sw.out), stats));
-                        }
+                        res.push(bin_result(sw, direct, &marks));
                     }
                 }
                 ls.todo = todo;
@@ -371,24 +356,33 @@ fn two_pass_bins<'c, 'a>(
         let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
         ls.gs.lists[b - g0] = sw.replay(rays);
         sw.solve();
-        let stats = std::mem::take(&mut sw.stats);
-        if let Some(out) = direct {
-            for (k, p) in &sw.out {
-                // SAFETY: the bins partition the pixels and a bin lists each
-                // of its pixels once, so no other thread touches pixel k.
-                // Without coverage a bin lists set pixels only.
-                unsafe {
-                    out.put_set(*k, p);
-                    marks.put(*k, p);
-                }
-            }
-            res.push((Vec::new(), stats));
-        } else {
-            res.push((std::mem::take(&mut sw.out), stats));
-        }
+        res.push(bin_result(sw, direct, marks));
     }
     ls.todo = todo;
     Ok(())
+}
+
+/// A solved bin's result: with `direct`, its pixels written into the
+/// buffers and `marks` (the list comes back empty), else its pixel list.
+fn bin_result(
+    sw: &mut RadialSweep<'_, '_>,
+    direct: Option<&SharedOut<'_>>,
+    marks: &Marks,
+) -> BinResult {
+    let stats = std::mem::take(&mut sw.stats);
+    let Some(out) = direct else {
+        return (std::mem::take(&mut sw.out), stats);
+    };
+    for (k, p) in &sw.out {
+        // SAFETY: the bins partition the pixels and a bin lists each of its
+        // pixels once, so no other thread touches pixel k. Without coverage
+        // a bin lists set pixels only.
+        unsafe {
+            out.put_set(*k, p);
+            marks.put(*k, p);
+        }
+    }
+    (Vec::new(), stats)
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
