@@ -27,7 +27,7 @@
 //! without coverage a bin is swept before its rays exist: its rays are then
 //! generated only up to the highest elevation the sweep covered (those above
 //! see no surface: often most of the image) and the sweep's spans replayed
-//! on them ([`two_pass_group`]).
+//! on them ([`two_pass_bins`]).
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
@@ -134,7 +134,17 @@ fn render_radial_with(
             (|| -> Result<Vec<BinResult>> {
                 cancel.check()?;
                 if two_pass {
-                    return two_pass_group(ctx, &runs, g0, g1, nb, off, direct, &marks, ls, cancel);
+                    // A few bins at a time (two lockstep batches of sweeps,
+                    // see [`sweep_together`]): a small working set, the rays
+                    // of several bins generated row by row together.
+                    let mut res = Vec::with_capacity(g1 - g0);
+                    for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
+                        let s1 = (s0 + TWO_PASS_BINS).min(g1);
+                        two_pass_bins(
+                            ctx, &runs, s0, s1, nb, off, direct, &marks, ls, cancel, &mut res,
+                        )?;
+                    }
+                    return Ok(res);
                 }
                 runs.group_rays(g0, g1, None, &mut ls.gs);
                 let mut res = Vec::new();
@@ -263,40 +273,12 @@ fn bin_count(cam: &crate::camera::Camera) -> usize {
     ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24)
 }
 
-/// One group of bins [g0, g1) of [`render_radial`] without coverage, a few
-/// bins at a time: each bin is swept first (its spans logged, see
+/// Bins [g0, g1) of [`render_radial`] without coverage, their results onto
+/// `res`: each bin is swept first (its spans logged, see
 /// [`RadialSweep::record`]), then the bins' rays are generated up to the
 /// highest elevation each bin's sweep covered (the rays above it see no
 /// surface), and each bin's spans are replayed on its rays, revealing them
 /// as a sweep run with all its rays would have, and its pixels solved.
-#[allow(clippy::too_many_arguments)]
-#[inline(never)]
-fn two_pass_group<'c, 'a>(
-    ctx: &'c Ctx<'a>,
-    runs: &Runs<'_>,
-    g0: usize,
-    g1: usize,
-    nb: usize,
-    off: (f64, f64),
-    direct: Option<&SharedOut<'_>>,
-    marks: &Marks,
-    ls: &mut Lockstep<'c, 'a>,
-    cancel: &Cancel,
-) -> Result<Vec<BinResult>> {
-    let mut res = Vec::with_capacity(g1 - g0);
-    // A few bins at a time (two lockstep batches of sweeps, see
-    // [`sweep_together`]): a small working set, the rays of several bins
-    // generated row by row together.
-    for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
-        let s1 = (s0 + TWO_PASS_BINS).min(g1);
-        two_pass_bins(
-            ctx, runs, s0, s1, nb, off, direct, marks, ls, cancel, &mut res,
-        )?;
-    }
-    Ok(res)
-}
-
-/// [`two_pass_group`] for bins [g0, g1), their results onto `res`.
 #[allow(clippy::too_many_arguments)]
 fn two_pass_bins<'c, 'a>(
     ctx: &'c Ctx<'a>,
@@ -1084,7 +1066,7 @@ struct GroupScratch {
 /// Bins swept side by side (see [`sweep_together`]).
 const LOCKSTEP: usize = 8;
 
-/// Bins of one round of [`two_pass_group`] (their sweeps, then their rays).
+/// Bins of one round of [`two_pass_bins`] (their sweeps, then their rays).
 const TWO_PASS_BINS: usize = 16;
 
 /// A worker thread's buffers: its group's rays, its sweeps (each with the
@@ -1513,7 +1495,7 @@ struct RadialSweep<'c, 'a> {
     /// into without covering their centre.
     edge: Vec<Option<Pixel>>,
     /// Sweep without rays, logging what changes the coverage (see
-    /// [`two_pass_group`]): the spans (ends in `log`) and the single points
+    /// [`two_pass_bins`]): the spans (ends in `log`) and the single points
     /// (after a hole), to be replayed on the rays by [`Self::replay`].
     record: bool,
     log: Vec<Sample>,
@@ -2400,6 +2382,20 @@ mod tests {
     use super::*;
     use crate::camera::{Projection, View};
 
+    /// A perspective camera of field of view 45° looking at the origin.
+    fn persp45(el: f64, az: f64, dist: f64, w: usize, h: usize) -> crate::camera::Camera {
+        let view = View {
+            elevation: el,
+            azimuth: az,
+            projection: Projection::Perspective {
+                distance: dist,
+                fov: 45.0,
+            },
+            target: DVec3::ZERO,
+        };
+        crate::camera::Camera::new(&view, w, h).unwrap()
+    }
+
     /// The sweep's local pixel rate ([`PxRate`]) never understates the
     /// screen's rate along a bin's plane by more than the 10 % margin of
     /// [`bin_ppr`], and stays at most 1 (`rho` measures pixels at the
@@ -2414,16 +2410,7 @@ mod tests {
             (8.0, 200.0, 12.0, 70, 41),
             (75.0, 10.0, 14.0, 48, 52),
         ] {
-            let view = View {
-                elevation: el,
-                azimuth: az,
-                projection: Projection::Perspective {
-                    distance: dist,
-                    fov: 45.0,
-                },
-                target: DVec3::ZERO,
-            };
-            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            let cam = persp45(el, az, dist, w, h);
             let nb = 97;
             let bins = Bins::new(nb);
             let runs = Runs::new(&cam, &bins, (0.0, 0.0));
@@ -2474,16 +2461,7 @@ mod tests {
             (89.5, 10.0, 14.0, 48, 52),
             (55.0, 310.0, 9.0, 61, 64),
         ] {
-            let view = View {
-                elevation: el,
-                azimuth: az,
-                projection: Projection::Perspective {
-                    distance: dist,
-                    fov: 45.0,
-                },
-                target: DVec3::ZERO,
-            };
-            let cam = crate::camera::Camera::new(&view, w, h).unwrap();
+            let cam = persp45(el, az, dist, w, h);
             for refine in [true, false] {
                 let opts = super::super::FloatingOptions {
                     refine,
