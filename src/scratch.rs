@@ -202,9 +202,8 @@ impl Mapping {
         let at = (base as usize).next_multiple_of(HUGE) - base as usize;
         // SAFETY: at < HUGE and at + body ≤ total, inside the mapping.
         let start = unsafe { base.add(at) };
-        // SAFETY: [start, start + body) lies in the mapping. The advice is a
-        // hint: its failure (THP off) leaves ordinary pages.
-        unsafe { libc::madvise(start.cast(), body, libc::MADV_HUGEPAGE) };
+        // (a hint: its failure, THP off, leaves ordinary pages)
+        advise_huge(start, body);
         Some(Mapping {
             base,
             total,
@@ -244,7 +243,6 @@ impl Mapping {
 pub fn advise_huge<T>(ptr: *const T, len: usize) {
     #[cfg(target_os = "linux")]
     {
-        const HUGE: usize = 1 << 21;
         let a = ptr as usize;
         let bytes = len.saturating_mul(std::mem::size_of::<T>());
         let (start, end) = (
