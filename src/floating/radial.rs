@@ -83,7 +83,6 @@ fn render_radial_with(
     cancel: &Cancel,
     two_pass: bool,
 ) -> Result<(PixelLists, ColumnStats)> {
-    use std::f64::consts::PI;
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
     let nb = bin_count(cam);
@@ -141,7 +140,7 @@ fn render_radial_with(
                     for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
                         let s1 = (s0 + TWO_PASS_BINS).min(g1);
                         two_pass_bins(
-                            ctx, &runs, s0, s1, nb, off, direct, &marks, ls, cancel, &mut res,
+                            ctx, &runs, s0, s1, off, direct, &marks, ls, cancel, &mut res,
                         )?;
                     }
                     return Ok(res);
@@ -164,7 +163,7 @@ fn render_radial_with(
                     let sweeps = &mut ls.sweeps[..chunk.len()];
                     for (&b, (sw, _)) in chunk.iter().zip(sweeps.iter_mut()) {
                         let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
-                        let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                        let phi = bins.centre(b);
                         // The sweep's previous rays become the list's buffer.
                         ls.gs.lists[b - g0] = sw.reset(phi, rays);
                         sw.off = off;
@@ -285,7 +284,6 @@ fn two_pass_bins<'c, 'a>(
     runs: &Runs<'_>,
     g0: usize,
     g1: usize,
-    nb: usize,
     off: (f64, f64),
     direct: Option<&SharedOut<'_>>,
     marks: &Marks,
@@ -293,7 +291,6 @@ fn two_pass_bins<'c, 'a>(
     cancel: &Cancel,
     res: &mut Vec<BinResult>,
 ) -> Result<()> {
-    use std::f64::consts::PI;
     let cam = ctx.cam;
     let mut todo = std::mem::take(&mut ls.todo);
     todo.clear();
@@ -303,7 +300,7 @@ fn two_pass_bins<'c, 'a>(
     }
     // The bins whose plane meets the image, each its sweep, in order.
     for b in g0..g1 {
-        let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+        let phi = runs.bins.centre(b);
         let Some((th0, th1)) = runs.wedge(phi) else {
             continue;
         };
@@ -1168,7 +1165,7 @@ struct RunState {
     h_max: f64,
     halvings: u32,
     /// Local pixels per unit of `rho` at the previous sample (see
-    /// [`PxRate`]).
+    /// [`PxRate`]), set when that sample is taken.
     rate: f64,
     /// Elevation range of the bin's rays (units of `rho`).
     th_lo: f64,
@@ -1275,6 +1272,13 @@ impl Bins {
             })
             .collect();
         Bins { n, edge }
+    }
+
+    /// The azimuth φ of bin b's centre line (the plane its sweep runs in).
+    #[inline]
+    pub(crate) fn centre(&self, b: usize) -> f64 {
+        use std::f64::consts::PI;
+        -PI + (b as f64 + 0.5) * 2.0 * PI / self.n as f64
     }
 
     #[inline]
@@ -1913,6 +1917,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             st.slots[0] = batch[0].map(|x| self.finish(x.t, x.uv, x.h));
             if let Some(a) = &st.slots[0] {
                 self.point(a.rho);
+                st.rate = self.rate.at(a.rho);
             }
             return self.drive(st, None);
         }
@@ -1935,7 +1940,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             Some(a) => {
                 let cap = opts.max_step() * self.fp_at(a).max(1e-12 * scale);
                 // (the elevation rate in local pixels)
-                st.rate = self.rate.at(a.rho);
                 let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                 if !deep && r > 0.0 && r.is_finite() {
@@ -2006,7 +2010,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             match (prev, cand) {
                 (Some(a), Some(b)) => {
                     // The gap in local pixels (the larger rate of its ends).
-                    let gap = (b.rho - a.rho).abs() * st.rate.max(self.rate.at(b.rho));
+                    let rb = self.rate.at(b.rho);
+                    let gap = (b.rho - a.rho).abs() * st.rate.max(rb);
                     let hidden = gap > opts.step() && self.hidden(a, b);
                     if gap > opts.step()
                         && !hidden
@@ -2026,8 +2031,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         Some(from) => self.span(&from, b, wall),
                         None => self.span(a, b, wall),
                     }
+                    // (b is the next step's previous sample)
+                    st.rate = rb;
                 }
-                (None, Some(b)) => self.point(b.rho),
+                (None, Some(b)) => {
+                    self.point(b.rho);
+                    st.rate = self.rate.at(b.rho);
+                }
                 (_, None) => {}
             }
             st.p = 1 - st.p;
@@ -2403,7 +2413,6 @@ mod tests {
     /// nearly straight down, at elevations across its wedge and beyond.
     #[test]
     fn local_pixel_rate_bounds_the_screen_rate() {
-        use std::f64::consts::PI;
         let mut checked = 0;
         for (el, az, dist, w, h) in [
             (30.0, 40.0, 24.0, 480, 477),
@@ -2415,7 +2424,7 @@ mod tests {
             let bins = Bins::new(nb);
             let runs = Runs::new(&cam, &bins, (0.0, 0.0));
             for b in 0..nb {
-                let phi = -PI + (b as f64 + 0.5) * 2.0 * PI / nb as f64;
+                let phi = bins.centre(b);
                 let Some((th0, th1)) = runs.wedge(phi) else {
                     continue;
                 };
@@ -2550,8 +2559,7 @@ mod tests {
                         if !rays.is_empty() && nb >= bin_count(&cam) {
                             wedges_checked += 1;
                             // The bin's wedge holds its rays' elevations.
-                            let phi = -std::f64::consts::PI
-                                + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
+                            let phi = bins.centre(b);
                             let (lo, hi) =
                                 runs.wedge(phi).expect("a bin with rays meets the image");
                             for r in rays {
@@ -2562,8 +2570,7 @@ mod tests {
                             // Generated between two elevations (up to half
                             // its rays; its middle half): every ray of the
                             // bin between them is among them.
-                            let phi = -std::f64::consts::PI
-                                + (b as f64 + 0.5) * 2.0 * std::f64::consts::PI / nb as f64;
+                            let phi = bins.centre(b);
                             let range = runs.wedge(phi).expect("wedge");
                             let mut th: Vec<f64> = rays.iter().map(|r| r.theta).collect();
                             th.sort_by(f64::total_cmp);
