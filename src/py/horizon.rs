@@ -100,6 +100,8 @@ fn output_array<'py>(
             arr.shape()
         )));
     }
+    // (Checked here: a Fortran-ordered array is contiguous too, and its
+    // slice would take the values in the wrong order.)
     if !arr.is_c_contiguous() {
         return Err(PyValueError::new_err("out: must be C-contiguous"));
     }
