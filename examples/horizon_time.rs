@@ -8,8 +8,8 @@
 //! `REPEAT=n`: after the first call (which allocates its output, as
 //! `fcol.horizon_map` does), the same map computed n more times into that
 //! output with `compute_into` (a reused buffer, as with `out=`: no page to
-//! fault in); a second line gives the median and the fastest of those n
-//! runs. The checksum is the first call's; the repeats are checked equal to
+//! fault in; set to NaN before each run, untimed); a second line gives the
+//! median and the fastest of those n runs. The checksum is the first call's; the repeats are checked equal to
 //! it bit for bit. `DUMP=path` writes the first call's values to `path`
 //! (raw little-endian float32, plane-major) for comparing maps.
 
@@ -105,9 +105,11 @@ fn main() {
     }
     let repeat: usize = std::env::var("REPEAT").map_or(0, |v| v.parse().unwrap());
     if repeat > 0 {
-        let mut buf = out.clone();
+        let mut buf = vec![0.0f32; out.len()];
         let (mut walls, mut cpus) = (vec![], vec![]);
         for _ in 0..repeat {
+            // (untimed: the check below must see values this run wrote)
+            buf.fill(f32::NAN);
             let t0 = Instant::now();
             let c0 = cpu_seconds();
             compute_into(&t, &o, &Cancel::new(), &Progress::default(), &mut buf).unwrap();
