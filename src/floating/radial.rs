@@ -41,7 +41,9 @@ use crate::surface::HeightSample;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-type BinResult = (Vec<(usize, Pixel)>, ColumnStats);
+/// A bin's pixels, counters and the pixels it dropped (see
+/// [`RadialSweep::missed`]).
+type BinResult = (Vec<(usize, Pixel)>, ColumnStats, Vec<(u32, f64)>);
 
 /// The pixels where the surface is seen, as lists of (row-major index,
 /// pixel): one list per azimuth bin and one of the filled holes.
@@ -195,8 +197,10 @@ fn render_radial_with(
     let results = results.into_iter().collect::<Result<Vec<_>>>()?;
     let mut stats = ColumnStats::default();
     let mut all = Vec::with_capacity(results.len() + 1);
-    for (px, st) in results.into_iter().flatten() {
+    let mut missed = Vec::new();
+    for (px, st, miss) in results.into_iter().flatten() {
         stats.add(&st);
+        missed.extend_from_slice(&miss);
         if direct.is_none() {
             for &(k, p) in &px {
                 set[k] = p.set;
@@ -206,6 +210,9 @@ fn render_radial_with(
         }
     }
     let mut holes = Vec::new();
+    behind_missed(
+        ctx, off, &missed, &mut set, &mut depth, &mut holes, &mut stats,
+    );
     fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
     if let Some(out) = direct {
         for (k, p) in &holes {
@@ -349,8 +356,9 @@ fn bin_result(
     marks: &Marks,
 ) -> BinResult {
     let stats = std::mem::take(&mut sw.stats);
+    let missed = std::mem::take(&mut sw.missed);
     let Some(out) = direct else {
-        return (std::mem::take(&mut sw.out), stats);
+        return (std::mem::take(&mut sw.out), stats, missed);
     };
     for (k, p) in &sw.out {
         // SAFETY: the bins partition the pixels and a bin lists each of its
@@ -361,7 +369,89 @@ fn bin_result(
             marks.put(*k, p);
         }
     }
-    (Vec::new(), stats)
+    (Vec::new(), stats, missed)
+}
+
+/// The pixels a bin dropped (see [`RadialSweep::missed`]): their ray passes
+/// by the near sheet the bin's plane met, and may meet a farther one, as
+/// its set neighbours do. Each is solved on its own ray by Newton from the
+/// hits of those neighbours beyond where its ray was searched (nearest
+/// first), and set at the first that settles within 16 pixels of the
+/// neighbour's; otherwise it stays unset.
+fn behind_missed(
+    ctx: &Ctx<'_>,
+    off: (f64, f64),
+    missed: &[(u32, f64)],
+    set: &mut [bool],
+    depth: &mut [f64],
+    px: &mut Vec<(usize, Pixel)>,
+    stats: &mut ColumnStats,
+) {
+    let cam = ctx.cam;
+    let (w, h) = (cam.width, cam.height);
+    let mut sc = super::refine::NewtonScratch::default();
+    for &(k, searched) in missed {
+        let k = k as usize;
+        let (i, j) = (k / w, k % w);
+        let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+        let dd = dir.dot(cam.d);
+        if dd.is_nan() || dd <= 0.0 {
+            continue;
+        }
+        let mut lams = [f64::NAN; 4];
+        for (m, (di, dj)) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)]
+            .into_iter()
+            .enumerate()
+        {
+            let (ni, nj) = (i as i64 + di, j as i64 + dj);
+            if ni < 0 || nj < 0 || ni >= h as i64 || nj >= w as i64 {
+                continue;
+            }
+            let n = ni as usize * w + nj as usize;
+            // (beyond where the pixel's ray was searched)
+            if set[n] && depth[n].is_finite() && depth[n] / dd > searched {
+                lams[m] = depth[n] / dd;
+            }
+        }
+        lams.sort_by(f64::total_cmp);
+        let mut found = None;
+        for &lam in lams.iter().filter(|l| l.is_finite()) {
+            let fp = lam.max(cam.near) / cam.focal;
+            stats.refine_evals += super::refine::newton(
+                ctx,
+                1,
+                |_| lam,
+                |_| (cam.eye, dir),
+                |_| (lam - 16.0 * fp, lam + 16.0 * fp, fp),
+                &mut sc,
+                |_, l, q, hs| found = Some((l, q, *hs)),
+            );
+            if found.is_some() {
+                break;
+            }
+        }
+        let Some((_, q, hs)) = found else {
+            continue;
+        };
+        let mut p = Pixel {
+            set: true,
+            side: 1,
+            depth: (q - cam.eye).dot(cam.d),
+            n: hs.normal(),
+            uv: DVec2::new(q.x, q.y),
+            inten: 0.0,
+            cover: 1.0,
+        };
+        let z = p.depth;
+        super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), &hs);
+        if ctx.opts.shading == ShadingMode::Intensity {
+            p.inten = ctx.shading.intensity(p.n, -dir);
+        }
+        set[k] = true;
+        depth[k] = p.depth;
+        px.push((k, p));
+        stats.holes_filled += 1;
+    }
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
@@ -1505,6 +1595,11 @@ struct RadialSweep<'c, 'a> {
     log: Vec<Sample>,
     events: Vec<Event>,
     points: Vec<f64>,
+    /// Without coverage: the pixels (indices) whose solve found no hit on
+    /// their ray near the span that revealed them (their ray passes by the
+    /// sheet the bin's plane met), dropped from `out`.
+    /// With each, how far along its ray it was searched.
+    missed: Vec<(u32, f64)>,
 }
 
 /// A change of a sweep's coverage (see [`RadialSweep::record`]).
@@ -1544,6 +1639,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             log: Vec::new(),
             events: Vec::new(),
             points: Vec::new(),
+            missed: Vec::new(),
         }
     }
 
@@ -1576,6 +1672,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.record = false;
         self.log.clear();
         self.events.clear();
+        self.missed.clear();
         old
     }
 
@@ -2107,15 +2204,25 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     );
                 }
                 None => {
+                    // No hit near the span that revealed the pixel: its ray
+                    // passes by the sheet the bin's plane met (up to half a
+                    // pixel beside it). Dropped, to be solved behind (see
+                    // [`behind_missed`]); with coverage it stays listed,
+                    // unset, for its covered fraction.
                     self.stats.refine_fail += 1;
-                    if ctx.opts.shading == ShadingMode::Normal {
-                        let p = &mut self.out[j.slot as usize].1;
+                    let (k, p) = &mut self.out[j.slot as usize];
+                    if ctx.opts.coverage && ctx.opts.shading == ShadingMode::Normal {
                         p.inten = ctx.shading.intensity(p.n, -j.dir);
                     }
+                    p.set = false;
+                    self.missed.push((*k as u32, j.hi + 8.0 * j.fp));
                 }
             }
         }
         self.failed = failed;
+        if !ctx.opts.coverage && !self.missed.is_empty() {
+            self.out.retain(|(_, p)| p.set);
+        }
     }
 
     /// §5 corrections between samples a and b: the spans up to the last
@@ -2451,6 +2558,47 @@ mod tests {
             }
         }
         assert!(checked > 1000, "{checked}");
+    }
+
+    /// With the exact solve, every pixel a perspective render sets lies on
+    /// the surface where its own ray meets it: pixels whose ray passes by
+    /// the sheet their bin's plane met are dropped or solved behind it (see
+    /// [`behind_missed`]), none keeps interpolated values.
+    #[test]
+    fn set_pixels_lie_on_their_rays_hit() {
+        let d = crate::surface::Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+        let f = crate::source::ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, d).unwrap();
+        let sh = crate::shade::Shading::default();
+        let opts = super::super::FloatingOptions::default();
+        let mut checked = 0;
+        let mut dropped = 0;
+        for (el, az, dist, w, h) in [(30.0, 40.0, 24.0, 240, 238), (12.0, 200.0, 14.0, 200, 120)] {
+            let cam = persp45(el, az, dist, w, h);
+            let ctx = Ctx {
+                cam: &cam,
+                frame: super::super::sampling::Frame::new(&cam, d),
+                field: &f,
+                shading: &sh,
+                opts: &opts,
+                refine: true,
+                fallback: true,
+            };
+            let (lists, stats) = render_radial(&ctx, (0.0, 0.0), None, &Cancel::new()).unwrap();
+            dropped += stats.refine_fail;
+            for (k, p) in lists.into_iter().flatten() {
+                assert!(p.set);
+                let (_, dir) = cam.ray((k / w) as f64, (k % w) as f64);
+                let q = cam.eye + (p.depth / dir.dot(cam.d)) * dir;
+                let z = (3.0 * (q.x * q.y.cos()).sin()).clamp(-3.0, 3.0);
+                assert!(
+                    (q.z - z).abs() < 1e-6,
+                    "view ({el}, {az}) pixel {k}: {} vs {z}",
+                    q.z
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 20_000 && dropped > 0, "{checked} {dropped}");
     }
 
     /// A render whose bins are swept before their rays exist (rays only up
