@@ -1511,7 +1511,7 @@ struct SpanConst {
 }
 
 impl SpanConst {
-    #[inline]
+    #[inline(always)]
     fn new(ctx: &Ctx<'_>, a: &Sample, b: &Sample, wall: bool) -> SpanConst {
         let e = ctx.cam.eye;
         let (pa, pb) = (a.world(&ctx.frame), b.world(&ctx.frame));
@@ -2308,7 +2308,11 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 self.done[k] = true;
                 let ray = self.rays[k];
                 let dir = self.ray_dir(k);
-                let sp = sp.get_or_insert_with(|| SpanConst::new(self.ctx, a, b, wall));
+                // (set up in line: a closure here was left out of line)
+                if sp.is_none() {
+                    sp = Some(SpanConst::new(self.ctx, a, b, wall));
+                }
+                let Some(sp) = &sp else { unreachable!() };
                 let px = self.pixel(a, b, sp, dir, th, wall);
                 self.out.push((ray.k as usize, px));
             }
