@@ -636,6 +636,7 @@ fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
 /// order into `dst`, the right points join the hull (§IV-A step 2) and each
 /// left point queries the hull of the right points before it (the covering
 /// set of its sector at this node, step 1).
+#[inline(never)]
 fn merge(src: &[Rec], mid: usize, dst: &mut [Rec], hull: &mut Hull) {
     let (left, right) = src.split_at(mid);
     hull.clear();
@@ -685,6 +686,10 @@ fn head(s: &[Rec], i: usize) -> u32 {
 /// separate passes (a hull whose queries are all done takes no more
 /// points), and every point queries its lower node's hull before
 /// its upper node's, as there.
+///
+/// Kept out of line: inlined into [`sector_with`] its loop was compiled
+/// with more spills (4 % more instructions for the whole sector).
+#[inline(never)]
 fn merge4(src: &[Rec], width: usize, dst: &mut [Rec], hulls: &mut [Hull; 3]) {
     let (ll, rest) = src.split_at(width.min(src.len()));
     let (lr, rest) = rest.split_at(width.min(rest.len()));
