@@ -439,7 +439,10 @@ const _: () = assert!(BLOCK <= 64);
 
 /// A point on its way through the levels: its projection, its best horizon
 /// point so far (`ABSENT`: none) and its a⊥ rank (processing order).
+/// Packed to 36 bytes (no padding after `a`): every merge pass streams the
+/// records through memory.
 #[derive(Clone, Copy)]
+#[repr(C, packed(4))]
 struct Rec {
     p: Proj,
     best: Proj,
