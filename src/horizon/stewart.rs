@@ -311,10 +311,11 @@ pub fn sort_keys_with(
     if n == 0 {
         return;
     }
+    // (plain comparisons, which ignore a NaN as min and max do)
     let (lo, hi) = k1
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-            (l.min(v), h.max(v))
+            (if v < l { v } else { l }, if v > h { v } else { h })
         });
     let nb = n;
     let scale = if hi > lo {
@@ -330,12 +331,27 @@ pub fn sort_keys_with(
     let h = 1usize << shift;
     let count = &mut sb.count;
     count.clear();
-    count.resize(2 * h, 0);
+    count.resize(3 * h, 0);
     sb.bucket.clear();
     sb.bucket.extend(k1.iter().map(|&v| bucket(v)));
-    for &b in &sb.bucket {
+    // Points in input order (on a grid, along its rows) mostly share their
+    // high digit with the previous point: its count is kept in two copies,
+    // for even and odd positions, so that consecutive increments of one
+    // counter do not wait on each other.
+    let mut pairs = sb.bucket.chunks_exact(2);
+    for b in &mut pairs {
+        count[(b[0] & mask) as usize] += 1;
+        count[(b[1] & mask) as usize] += 1;
+        count[h + (b[0] >> shift) as usize] += 1;
+        count[2 * h + (b[1] >> shift) as usize] += 1;
+    }
+    for &b in pairs.remainder() {
         count[(b & mask) as usize] += 1;
         count[h + (b >> shift) as usize] += 1;
+    }
+    let (count, odd) = count.split_at_mut(2 * h);
+    for (c, o) in count[h..].iter_mut().zip(odd.iter()) {
+        *c += *o;
     }
     for half in count.chunks_mut(h) {
         let mut sum = 0;
@@ -829,11 +845,22 @@ pub fn sector_with(
     }
     w.b.clear();
     w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
-    w.pa.clear();
-    w.pa.extend(
-        ids.iter()
-            .map(|&q| (project(f, t.x[q], t.y[q], t.z[q], o.curvature), 0)),
+    // The projections, and their extent in w and Z for the sector's
+    // orientation bound below (plain comparisons, which ignore a NaN as
+    // min and max do).
+    let (mut wr, mut zr) = (
+        (f64::INFINITY, f64::NEG_INFINITY),
+        (f64::INFINITY, f64::NEG_INFINITY),
     );
+    w.pa.clear();
+    w.pa.extend(ids.iter().map(|&q| {
+        let pr = project(f, t.x[q], t.y[q], t.z[q], o.curvature);
+        wr.0 = if pr.w < wr.0 { pr.w } else { wr.0 };
+        wr.1 = if pr.w > wr.1 { pr.w } else { wr.1 };
+        zr.0 = if pr.zz < zr.0 { pr.zz } else { zr.0 };
+        zr.1 = if pr.zz > zr.1 { pr.zz } else { zr.1 };
+        (pr, 0)
+    }));
     // First index: a⊥ ascending, ties b⊥ descending, then input order.
     if follows {
         sort_runs(&w.b, &mut w.order, &w.ties);
@@ -898,13 +925,6 @@ pub fn sector_with(
     // before it merges them, while they are in cache.
     // One error bound for every orientation test of this sector (see
     // [`BoxFilter`]): its points' extent in w and Z.
-    let (wr, zr) = w.pa.iter().fold(
-        (
-            (f64::INFINITY, f64::NEG_INFINITY),
-            (f64::INFINITY, f64::NEG_INFINITY),
-        ),
-        |((wl, wh), (zl, zh)), (q, _)| ((wl.min(q.w), wh.max(q.w)), (zl.min(q.zz), zh.max(q.zz))),
-    );
     let bx = BoxFilter::new(wr, zr);
     w.hull.bx = bx;
     for h in &mut w.hulls {
