@@ -198,8 +198,32 @@ fn insert_desc_in(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
         if q.zz < far.zz.min(near.zz) || !ccw_or_flat(bx, near, far, q) {
             return;
         }
+        // or on or under the edge over it (most such points, in a merge):
+        // [`insert_ordered`]'s first test, made here without a call (then
+        // 0 < pos < n, and h[pos].w < q.w < h[pos − 1].w)
+        let pos = place_desc(h, q);
+        if h[pos].w != q.w && ccw_or_flat(bx, h[pos - 1], h[pos], q) {
+            return;
+        }
     }
     insert_ordered::<true>(h, q, bx);
+}
+
+/// The first vertex of `h` (sorted by decreasing w) with w ≤ q.w. In a
+/// merge a point that is not the nearest most often falls a few vertices
+/// from the near end: a bounded scan from there, then bisection of the
+/// rest.
+#[inline(always)]
+fn place_desc(h: &[Proj], q: Proj) -> usize {
+    let n = h.len();
+    let mut pos = n;
+    while pos > 0 && h[pos - 1].w <= q.w {
+        pos -= 1;
+        if n - pos == SCAN {
+            return h[..pos].partition_point(|v| v.w > q.w);
+        }
+    }
+    pos
 }
 
 /// Vertices [`insert_ordered`] scans from the near end before bisecting.
@@ -225,23 +249,12 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
         }
     };
     let n = h.len();
-    // The first vertex not before q (w ≥ q.w, or ≤ when DESC). In a merge
-    // (DESC) a point that is not the nearest most often falls a few
-    // vertices from the near end: a bounded scan from there, then
-    // bisection of the rest.
-    let mut pos;
-    if DESC {
-        pos = n;
-        while pos > 0 && h[pos - 1].w <= q.w {
-            pos -= 1;
-            if n - pos == SCAN {
-                pos = h[..pos].partition_point(|v| v.w > q.w);
-                break;
-            }
-        }
+    // The first vertex not before q (w ≥ q.w, or ≤ when DESC).
+    let mut pos = if DESC {
+        place_desc(h, q)
     } else {
-        pos = h.partition_point(|v| v.w < q.w);
-    }
+        h.partition_point(|v| v.w < q.w)
+    };
     let mut end = pos; // h[pos..end] will be replaced by q
     if pos < n && h[pos].w == q.w {
         if h[pos].zz >= q.zz {
