@@ -835,8 +835,17 @@ pub fn sector_with(
     w: &mut Work,
 ) -> Result<()> {
     w.reserve(t.len());
-    t.split_no_data(plane, &mut w.ids);
-    let n = w.ids.len();
+    // When every height is finite the points are the terrain's own, in
+    // order: no list of them is made, and their keys and projections are
+    // read in sequence.
+    let all = t.finite;
+    let n = if all {
+        w.ids.clear();
+        t.len()
+    } else {
+        t.split_no_data(plane, &mut w.ids);
+        w.ids.len()
+    };
     if n == 0 {
         return Ok(());
     }
@@ -854,10 +863,18 @@ pub fn sector_with(
         std::mem::swap(&mut w.order, &mut w.by_b);
     } else {
         w.a.clear();
-        w.a.extend(ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])));
+        if all {
+            w.a.extend(t.kx.iter().zip(&t.ky).map(|(&x, &y)| f.key_a(x, y)));
+        } else {
+            w.a.extend(ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])));
+        }
     }
     w.b.clear();
-    w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
+    if all {
+        w.b.extend(t.kx.iter().zip(&t.ky).map(|(&x, &y)| f.key_b(x, y)));
+    } else {
+        w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
+    }
     // The projections, and their extent in w and Z for the sector's
     // orientation bound below (plain comparisons, which ignore a NaN as
     // min and max do).
@@ -865,15 +882,22 @@ pub fn sector_with(
         (f64::INFINITY, f64::NEG_INFINITY),
         (f64::INFINITY, f64::NEG_INFINITY),
     );
-    w.pa.clear();
-    w.pa.extend(ids.iter().map(|&q| {
-        let pr = project(f, t.x[q], t.y[q], t.z[q], o.curvature);
+    let mut proj = |x: f64, y: f64, z: f64| {
+        let pr = project(f, x, y, z, o.curvature);
         wr.0 = if pr.w < wr.0 { pr.w } else { wr.0 };
         wr.1 = if pr.w > wr.1 { pr.w } else { wr.1 };
         zr.0 = if pr.zz < zr.0 { pr.zz } else { zr.0 };
         zr.1 = if pr.zz > zr.1 { pr.zz } else { zr.1 };
         (pr, 0)
-    }));
+    };
+    w.pa.clear();
+    if all {
+        let xyz = t.x.iter().zip(&t.y).zip(&t.z);
+        w.pa.extend(xyz.map(|((&x, &y), &z)| proj(x, y, z)));
+    } else {
+        w.pa.extend(ids.iter().map(|&q| proj(t.x[q], t.y[q], t.z[q])));
+    }
+
     // First index: a⊥ ascending, ties b⊥ descending, then input order.
     if follows {
         sort_runs(&w.b, &mut w.order, &w.ties);
