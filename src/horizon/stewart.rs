@@ -336,7 +336,13 @@ pub fn sort_keys_with(
     } else {
         0.0
     };
-    let bucket = |v: f64| (((v - lo) * scale) as usize).min(nb - 1) as u32;
+    // (capped before the conversion, which gives the same numbers: a NaN
+    // still converts to 0)
+    let top = (nb - 1) as f64;
+    let bucket = |v: f64| {
+        let x = (v - lo) * scale;
+        (if x > top { top } else { x }) as u32
+    };
     // bits of the largest bucket number, split into a low and a high digit
     let bits = usize::BITS - (nb - 1).leading_zeros();
     let shift = bits.div_ceil(2);
