@@ -380,7 +380,10 @@ pub fn atan2_f32(y: f64, x: f64) -> f32 {
         return y.atan2(x) as f32;
     }
     let steep = ay > x;
-    let u = if steep { x / ay } else { ay / x };
+    // (one division of the chosen operands: with a choice of quotients the
+    // compiler computed both)
+    let (num, den) = if steep { (x, ay) } else { (ay, x) };
+    let u = num / den;
     let s = u * u;
     // P(s) by Estrin's scheme (pairs, then pairs of pairs): a chain of five
     // dependent steps instead of Horner's thirteen; its rounding differs

@@ -198,8 +198,32 @@ fn insert_desc_in(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
         if q.zz < far.zz.min(near.zz) || !ccw_or_flat(bx, near, far, q) {
             return;
         }
+        // or on or under the edge over it (most such points, in a merge):
+        // [`insert_ordered`]'s first test, made here without a call (then
+        // 0 < pos < n, and h[pos].w < q.w < h[pos − 1].w)
+        let pos = place_desc(h, q);
+        if h[pos].w != q.w && ccw_or_flat(bx, h[pos - 1], h[pos], q) {
+            return;
+        }
     }
     insert_ordered::<true>(h, q, bx);
+}
+
+/// The first vertex of `h` (sorted by decreasing w) with w ≤ q.w. In a
+/// merge a point that is not the nearest most often falls a few vertices
+/// from the near end: a bounded scan from there, then bisection of the
+/// rest.
+#[inline(always)]
+fn place_desc(h: &[Proj], q: Proj) -> usize {
+    let n = h.len();
+    let mut pos = n;
+    while pos > 0 && h[pos - 1].w <= q.w {
+        pos -= 1;
+        if n - pos == SCAN {
+            return h[..pos].partition_point(|v| v.w > q.w);
+        }
+    }
+    pos
 }
 
 /// Vertices [`insert_ordered`] scans from the near end before bisecting.
@@ -225,23 +249,12 @@ fn insert_ordered<const DESC: bool>(h: &mut Vec<Proj>, q: Proj, bx: BoxFilter) {
         }
     };
     let n = h.len();
-    // The first vertex not before q (w ≥ q.w, or ≤ when DESC). In a merge
-    // (DESC) a point that is not the nearest most often falls a few
-    // vertices from the near end: a bounded scan from there, then
-    // bisection of the rest.
-    let mut pos;
-    if DESC {
-        pos = n;
-        while pos > 0 && h[pos - 1].w <= q.w {
-            pos -= 1;
-            if n - pos == SCAN {
-                pos = h[..pos].partition_point(|v| v.w > q.w);
-                break;
-            }
-        }
+    // The first vertex not before q (w ≥ q.w, or ≤ when DESC).
+    let mut pos = if DESC {
+        place_desc(h, q)
     } else {
-        pos = h.partition_point(|v| v.w < q.w);
-    }
+        h.partition_point(|v| v.w < q.w)
+    };
     let mut end = pos; // h[pos..end] will be replaced by q
     if pos < n && h[pos].w == q.w {
         if h[pos].zz >= q.zz {
@@ -311,10 +324,11 @@ pub fn sort_keys_with(
     if n == 0 {
         return;
     }
+    // (plain comparisons, which ignore a NaN as min and max do)
     let (lo, hi) = k1
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-            (l.min(v), h.max(v))
+            (if v < l { v } else { l }, if v > h { v } else { h })
         });
     let nb = n;
     let scale = if hi > lo {
@@ -322,7 +336,13 @@ pub fn sort_keys_with(
     } else {
         0.0
     };
-    let bucket = |v: f64| (((v - lo) * scale) as usize).min(nb - 1) as u32;
+    // (capped before the conversion, which gives the same numbers: a NaN
+    // still converts to 0)
+    let top = (nb - 1) as f64;
+    let bucket = |v: f64| {
+        let x = (v - lo) * scale;
+        (if x > top { top } else { x }) as u32
+    };
     // bits of the largest bucket number, split into a low and a high digit
     let bits = usize::BITS - (nb - 1).leading_zeros();
     let shift = bits.div_ceil(2);
@@ -330,12 +350,27 @@ pub fn sort_keys_with(
     let h = 1usize << shift;
     let count = &mut sb.count;
     count.clear();
-    count.resize(2 * h, 0);
+    count.resize(3 * h, 0);
     sb.bucket.clear();
     sb.bucket.extend(k1.iter().map(|&v| bucket(v)));
-    for &b in &sb.bucket {
+    // Points in input order (on a grid, along its rows) mostly share their
+    // high digit with the previous point: its count is kept in two copies,
+    // for even and odd positions, so that consecutive increments of one
+    // counter do not wait on each other.
+    let mut pairs = sb.bucket.chunks_exact(2);
+    for b in &mut pairs {
+        count[(b[0] & mask) as usize] += 1;
+        count[(b[1] & mask) as usize] += 1;
+        count[h + (b[0] >> shift) as usize] += 1;
+        count[2 * h + (b[1] >> shift) as usize] += 1;
+    }
+    for &b in pairs.remainder() {
         count[(b & mask) as usize] += 1;
         count[h + (b >> shift) as usize] += 1;
+    }
+    let (count, odd) = count.split_at_mut(2 * h);
+    for (c, o) in count[h..].iter_mut().zip(odd.iter()) {
+        *c += *o;
     }
     for half in count.chunks_mut(h) {
         let mut sum = 0;
@@ -439,7 +474,10 @@ const _: () = assert!(BLOCK <= 64);
 
 /// A point on its way through the levels: its projection, its best horizon
 /// point so far (`ABSENT`: none) and its a⊥ rank (processing order).
+/// Packed to 36 bytes (no padding after `a`): every merge pass streams the
+/// records through memory.
 #[derive(Clone, Copy)]
+#[repr(C, packed(4))]
 struct Rec {
     p: Proj,
     best: Proj,
@@ -636,6 +674,7 @@ fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
 /// order into `dst`, the right points join the hull (§IV-A step 2) and each
 /// left point queries the hull of the right points before it (the covering
 /// set of its sector at this node, step 1).
+#[inline(never)]
 fn merge(src: &[Rec], mid: usize, dst: &mut [Rec], hull: &mut Hull) {
     let (left, right) = src.split_at(mid);
     hull.clear();
@@ -685,6 +724,10 @@ fn head(s: &[Rec], i: usize) -> u32 {
 /// separate passes (a hull whose queries are all done takes no more
 /// points), and every point queries its lower node's hull before
 /// its upper node's, as there.
+///
+/// Kept out of line: inlined into [`sector_with`] its loop was compiled
+/// with more spills (4 % more instructions for the whole sector).
+#[inline(never)]
 fn merge4(src: &[Rec], width: usize, dst: &mut [Rec], hulls: &mut [Hull; 3]) {
     let (ll, rest) = src.split_at(width.min(src.len()));
     let (lr, rest) = rest.split_at(width.min(rest.len()));
@@ -798,8 +841,17 @@ pub fn sector_with(
     w: &mut Work,
 ) -> Result<()> {
     w.reserve(t.len());
-    t.split_no_data(plane, &mut w.ids);
-    let n = w.ids.len();
+    // When every height is finite the points are the terrain's own, in
+    // order: no list of them is made, and their keys and projections are
+    // read in sequence.
+    let all = t.finite;
+    let n = if all {
+        w.ids.clear();
+        t.len()
+    } else {
+        t.split_no_data(plane, &mut w.ids);
+        w.ids.len()
+    };
     if n == 0 {
         return Ok(());
     }
@@ -817,15 +869,41 @@ pub fn sector_with(
         std::mem::swap(&mut w.order, &mut w.by_b);
     } else {
         w.a.clear();
-        w.a.extend(ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])));
+        if all {
+            w.a.extend(t.kx.iter().zip(&t.ky).map(|(&x, &y)| f.key_a(x, y)));
+        } else {
+            w.a.extend(ids.iter().map(|&q| f.key_a(t.kx[q], t.ky[q])));
+        }
     }
     w.b.clear();
-    w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
-    w.pa.clear();
-    w.pa.extend(
-        ids.iter()
-            .map(|&q| (project(f, t.x[q], t.y[q], t.z[q], o.curvature), 0)),
+    if all {
+        w.b.extend(t.kx.iter().zip(&t.ky).map(|(&x, &y)| f.key_b(x, y)));
+    } else {
+        w.b.extend(ids.iter().map(|&q| f.key_b(t.kx[q], t.ky[q])));
+    }
+    // The projections, and their extent in w and Z for the sector's
+    // orientation bound below (plain comparisons, which ignore a NaN as
+    // min and max do).
+    let (mut wr, mut zr) = (
+        (f64::INFINITY, f64::NEG_INFINITY),
+        (f64::INFINITY, f64::NEG_INFINITY),
     );
+    let mut proj = |x: f64, y: f64, z: f64| {
+        let pr = project(f, x, y, z, o.curvature);
+        wr.0 = if pr.w < wr.0 { pr.w } else { wr.0 };
+        wr.1 = if pr.w > wr.1 { pr.w } else { wr.1 };
+        zr.0 = if pr.zz < zr.0 { pr.zz } else { zr.0 };
+        zr.1 = if pr.zz > zr.1 { pr.zz } else { zr.1 };
+        (pr, 0)
+    };
+    w.pa.clear();
+    if all {
+        let xyz = t.x.iter().zip(&t.y).zip(&t.z);
+        w.pa.extend(xyz.map(|((&x, &y), &z)| proj(x, y, z)));
+    } else {
+        w.pa.extend(ids.iter().map(|&q| proj(t.x[q], t.y[q], t.z[q])));
+    }
+
     // First index: a⊥ ascending, ties b⊥ descending, then input order.
     if follows {
         sort_runs(&w.b, &mut w.order, &w.ties);
@@ -890,13 +968,6 @@ pub fn sector_with(
     // before it merges them, while they are in cache.
     // One error bound for every orientation test of this sector (see
     // [`BoxFilter`]): its points' extent in w and Z.
-    let (wr, zr) = w.pa.iter().fold(
-        (
-            (f64::INFINITY, f64::NEG_INFINITY),
-            (f64::INFINITY, f64::NEG_INFINITY),
-        ),
-        |((wl, wh), (zl, zh)), (q, _)| ((wl.min(q.w), wh.max(q.w)), (zl.min(q.zz), zh.max(q.zz))),
-    );
     let bx = BoxFilter::new(wr, zr);
     w.hull.bx = bx;
     for h in &mut w.hulls {
