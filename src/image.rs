@@ -15,7 +15,13 @@ fn filled<T: Copy + Send + Sync>(n: usize, x: T) -> Vec<T> {
         return vec![x; n];
     }
     let mut v = Vec::with_capacity(n);
-    (0..n).into_par_iter().map(|_| x).collect_into_vec(&mut v);
+    // Chunks filled by plain stores (a rayon collect writes element by
+    // element through its consumer: several times the instructions).
+    v.spare_capacity_mut()[..n]
+        .par_chunks_mut(1 << 14)
+        .for_each(|c| c.iter_mut().for_each(|s| _ = s.write(x)));
+    // SAFETY: the first n elements were initialised just above.
+    unsafe { v.set_len(n) };
     v
 }
 
