@@ -99,6 +99,22 @@ impl BoxFilter {
     }
 }
 
+impl BoxFilter {
+    /// [`BoxFilter::sign`] as one well-predicted branch (on whether the box
+    /// bound decides) and the sign of the rounded determinant as a value,
+    /// for callers that select on it without branching.
+    #[inline(always)]
+    pub fn sign_flat(self, a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<bool> {
+        let det = det_bound(a, b, c).0;
+        // (a NaN determinant is not decided here, as in `sign`)
+        if det.abs() > self.bound {
+            Some(det > 0.0)
+        } else {
+            orient_filtered_cold(a, b, c)
+        }
+    }
+}
+
 /// [`orient_filtered`] out of line (the rare case of [`BoxFilter::sign`]).
 #[cold]
 #[inline(never)]

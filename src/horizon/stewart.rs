@@ -644,6 +644,14 @@ fn pick(bx: BoxFilter, p: Proj, best: Proj, c: Proj) -> Proj {
 /// One block of ranks by the definition: `r` holds the block's points in a⊥
 /// order and `kin` their ranks inside the block; each point against the
 /// block's points already processed with a higher rank.
+///
+/// The maximum over those points is taken in four independent chains
+/// (candidates dealt round-robin), combined at the end: the maximum does
+/// not depend on the order of comparison (the comparison is exact and a
+/// tie goes to the nearer point, so equal candidates are equal
+/// projections). Each step selects a rank without branching on the
+/// outcome, which follows no pattern; one chain's steps would wait on
+/// each other.
 fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
     // The block's processed points by rank, so that a candidate is read
     // directly by its rank.
@@ -652,18 +660,51 @@ fn leaf_block(r: &mut [Rec], kin: &[u8], bx: BoxFilter) {
     for (rec, &k) in r.iter_mut().zip(kin) {
         let k = k as usize % BLOCK;
         let p = rec.p;
-        let mut best = rec.best;
-        // (k = 63 shifts every bit out.)
-        let mut rest = done.checked_shr(k as u32 + 1).unwrap_or(0);
-        let mut kk = k + 1;
-        while rest != 0 {
-            let step = rest.trailing_zeros() as usize;
-            kk += step;
-            best = pick(bx, p, best, by_rank[kk % BLOCK]);
-            rest >>= step + 1;
-            kk += 1;
+        // the processed ranks above k (none for k = 63: 2 << 63 is 0)
+        let mut rest = done & !(2u64 << k).wrapping_sub(1);
+        if rest != 0 {
+            // the better of ranks i and j for p (exact; ties to the nearer)
+            let sel = |i: usize, j: usize| {
+                let (cur, cand) = (by_rank[i], by_rank[j]);
+                let (a, b, c) = ((p.w, p.zz), (cur.w, cur.zz), (cand.w, cand.zz));
+                let take = match bx.sign_flat(a, b, c) {
+                    Some(s) => s,
+                    None => better_near(a, b, c),
+                };
+                if take {
+                    j
+                } else {
+                    i
+                }
+            };
+            // the lowest rank left (rest ≠ 0), removed from rest
+            let next = |rest: &mut u64| {
+                let j = rest.trailing_zeros() as usize;
+                *rest &= *rest - 1;
+                j
+            };
+            let mut c = [next(&mut rest); 4];
+            let mut m = 1;
+            while rest != 0 && m < 4 {
+                c[m] = next(&mut rest);
+                m += 1;
+            }
+            while rest != 0 {
+                for cj in c.iter_mut() {
+                    if rest == 0 {
+                        break;
+                    }
+                    let j = next(&mut rest);
+                    *cj = sel(*cj, j);
+                }
+            }
+            // (m chains are in use: a point against itself would be a
+            // flat triple, which the filters leave to the exact sign)
+            let x = if m > 1 { sel(c[0], c[1]) } else { c[0] };
+            let y = if m > 3 { sel(c[2], c[3]) } else { c[2] };
+            let z = if m > 2 { sel(x, y) } else { x };
+            rec.best = pick(bx, p, rec.best, by_rank[z]);
         }
-        rec.best = best;
         by_rank[k] = p;
         done |= 1 << k;
     }
