@@ -325,11 +325,19 @@ pub fn sort_keys_with(
         return;
     }
     // (plain comparisons, which ignore a NaN as min and max do)
-    let (lo, hi) = k1
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-            (if v < l { v } else { l }, if v > h { v } else { h })
-        });
+    // in four interleaved chains (a comparison waits on the previous one)
+    let mut l4 = [f64::INFINITY; 4];
+    let mut h4 = [f64::NEG_INFINITY; 4];
+    let mut quads = k1.chunks_exact(4);
+    for q in &mut quads {
+        for ((l, h), &v) in l4.iter_mut().zip(h4.iter_mut()).zip(q) {
+            (*l, *h) = (if v < *l { v } else { *l }, if v > *h { v } else { *h });
+        }
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &v in l4.iter().chain(h4.iter()).chain(quads.remainder()) {
+        (lo, hi) = (if v < lo { v } else { lo }, if v > hi { v } else { hi });
+    }
     let nb = n;
     let scale = if hi > lo {
         (nb - 1) as f64 / (hi - lo)
@@ -351,20 +359,24 @@ pub fn sort_keys_with(
     let count = &mut sb.count;
     count.clear();
     count.resize(3 * h, 0);
-    sb.bucket.clear();
-    sb.bucket.extend(k1.iter().map(|&v| bucket(v)));
+    // The bucket numbers, counted as they are made.
     // Points in input order (on a grid, along its rows) mostly share their
     // high digit with the previous point: its count is kept in two copies,
     // for even and odd positions, so that consecutive increments of one
     // counter do not wait on each other.
-    let mut pairs = sb.bucket.chunks_exact(2);
-    for b in &mut pairs {
-        count[(b[0] & mask) as usize] += 1;
-        count[(b[1] & mask) as usize] += 1;
-        count[h + (b[0] >> shift) as usize] += 1;
-        count[2 * h + (b[1] >> shift) as usize] += 1;
+    sb.bucket.resize(n, 0);
+    let mut pairs = sb.bucket.chunks_exact_mut(2).zip(k1.chunks_exact(2));
+    for (b, v) in &mut pairs {
+        let (b0, b1) = (bucket(v[0]), bucket(v[1]));
+        (b[0], b[1]) = (b0, b1);
+        count[(b0 & mask) as usize] += 1;
+        count[(b1 & mask) as usize] += 1;
+        count[h + (b0 >> shift) as usize] += 1;
+        count[2 * h + (b1 >> shift) as usize] += 1;
     }
-    for &b in pairs.remainder() {
+    if n % 2 == 1 {
+        let b = bucket(k1[n - 1]);
+        sb.bucket[n - 1] = b;
         count[(b & mask) as usize] += 1;
         count[h + (b >> shift) as usize] += 1;
     }
