@@ -433,25 +433,33 @@ fn behind_missed(
         let Some((_, q, hs)) = found else {
             continue;
         };
-        let mut p = Pixel {
-            set: true,
-            side: 1,
-            depth: (q - cam.eye).dot(cam.d),
-            n: hs.normal(),
-            uv: DVec2::new(q.x, q.y),
-            inten: 0.0,
-            cover: 1.0,
-        };
-        let z = p.depth;
-        super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), &hs);
-        if ctx.opts.shading == ShadingMode::Intensity {
-            p.inten = ctx.shading.intensity(p.n, -dir);
-        }
+        let p = hit_pixel(ctx, dir, q, &hs);
         set[k] = true;
         depth[k] = p.depth;
         px.push((k, p));
         stats.holes_filled += 1;
     }
+}
+
+/// The pixel of an exact hit q on ray `dir` (upper side), finished and
+/// shaded as the bins' solved pixels are.
+fn hit_pixel(ctx: &Ctx<'_>, dir: DVec3, q: DVec3, hs: &HeightSample) -> Pixel {
+    let cam = ctx.cam;
+    let mut p = Pixel {
+        set: true,
+        side: 1,
+        depth: (q - cam.eye).dot(cam.d),
+        n: hs.normal(),
+        uv: DVec2::new(q.x, q.y),
+        inten: 0.0,
+        cover: 1.0,
+    };
+    let z = p.depth;
+    super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), hs);
+    if ctx.opts.shading == ShadingMode::Intensity {
+        p.inten = ctx.shading.intensity(p.n, -dir);
+    }
+    p
 }
 
 /// Raw views of the set flags and depths of [`render_radial`]'s pixels,
@@ -653,21 +661,7 @@ fn fill_holes(
                     .march(dir, lo, hi, fp, 1)
                     .or_else(|| sw.march(dir, lo, hi, fp, -1));
                 if let Some((l, hs)) = hit {
-                    let q = cam.eye + l * dir;
-                    let mut p = Pixel {
-                        set: true,
-                        side: 1,
-                        depth: (q - cam.eye).dot(cam.d),
-                        n: hs.normal(),
-                        uv: DVec2::new(q.x, q.y),
-                        inten: 0.0,
-                        cover: 1.0,
-                    };
-                    let z = p.depth;
-                    super::refine::finish(ctx, &mut p, dir, z, DVec2::new(q.x, q.y), &hs);
-                    if ctx.opts.shading == ShadingMode::Intensity {
-                        p.inten = ctx.shading.intensity(p.n, -dir);
-                    }
+                    let p = hit_pixel(ctx, dir, cam.eye + l * dir, &hs);
                     set[i * w + j] = true;
                     depth[i * w + j] = p.depth;
                     px.push((i * w + j, p));
