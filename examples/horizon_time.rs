@@ -9,8 +9,9 @@
 //! `fcol.horizon_map` does), the same map computed n more times into that
 //! output with `compute_into` (a reused buffer, as with `out=`: no page to
 //! fault in; set to NaN before each run, untimed); a second line gives the
-//! median and the fastest of those n runs. The checksum is the first call's; the repeats are checked equal to
-//! it bit for bit. `DUMP=path` writes the first call's values to `path`
+//! median and the fastest of those n runs. The checksum is the first
+//! call's; the repeats are checked equal to it bit for bit. `DUMP=path`
+//! writes the first call's values to `path`
 //! (raw little-endian float32, plane-major) for comparing maps.
 
 use _fcol::horizon::{compute, compute_into, Method, Options, Progress, Terrain};

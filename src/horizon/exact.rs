@@ -97,9 +97,7 @@ impl BoxFilter {
             orient_filtered_cold(a, b, c)
         }
     }
-}
 
-impl BoxFilter {
     /// [`BoxFilter::sign`] as one well-predicted branch (on whether the box
     /// bound decides) and the sign of the rounded determinant as a value,
     /// for callers that select on it without branching.
