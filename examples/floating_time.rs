@@ -2,7 +2,9 @@
 //! surface 3 sin(u cos v) over [−5, 5]²:
 //! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
 //! with keys refine, step, max_step, outs (comma-separated buffers) (the options of `fcol.render`),
-//! hash=1 to print a digest of the buffers (to compare outputs across builds)
+//! hash=1 to print a digest of the buffers (to compare outputs across builds),
+//! height_bound=0 to sweep without the height bound's early exit, el, az and dist to
+//! change the view's elevation, azimuth and (perspective) distance
 //! and stats=1 to print the render's counters (with evaluations per pixel seen).
 
 use _fcol::camera::Projection;
@@ -23,6 +25,7 @@ fn main() {
     let mut o = FloatingOptions::default();
     let mut want_hash = false;
     let mut want_stats = false;
+    let (mut el, mut az, mut dist): (Option<f64>, Option<f64>, Option<f64>) = (None, None, None);
     let mut names = vec![
         "rgb".to_string(),
         "depth".into(),
@@ -38,10 +41,14 @@ fn main() {
             "outs" => names = v.split(',').map(str::to_string).collect(),
             "hash" => want_hash = v == "1" || v == "true",
             "stats" => want_stats = v == "1" || v == "true",
+            "height_bound" => o.height_bound = v == "1" || v == "true",
+            "el" => el = Some(v.parse().unwrap()),
+            "az" => az = Some(v.parse().unwrap()),
+            "dist" => dist = Some(v.parse().unwrap()),
             _ => panic!("unknown option {k}"),
         }
     }
-    let view = if which == "persp" {
+    let mut view = if which == "persp" {
         View {
             elevation: 30.0,
             azimuth: 40.0,
@@ -59,6 +66,15 @@ fn main() {
             target: DVec3::ZERO,
         }
     };
+    if let Some(x) = el {
+        view.elevation = x;
+    }
+    if let Some(x) = az {
+        view.azimuth = x;
+    }
+    if let (Some(x), Projection::Perspective { distance, .. }) = (dist, &mut view.projection) {
+        *distance = x;
+    }
     let dom = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
     let f = ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, dom).unwrap();
     let outs = Outputs::from_names(&names.iter().map(String::as_str).collect::<Vec<_>>()).unwrap();

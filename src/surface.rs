@@ -84,6 +84,14 @@ pub trait HeightField: Sync {
         }
     }
 
+    /// Bounds (lo, hi) of every finite value of f over the domain (None:
+    /// unknown). A bound may be loose but is never too narrow: the
+    /// renderers stop a sweep where it shows that nothing further can be
+    /// seen.
+    fn height_bound(&self) -> Option<(f64, f64)> {
+        None
+    }
+
     /// Evaluate f alone at one point.
     fn eval_value(&self, u: f64, v: f64) -> f64 {
         let mut out = [0.0];

@@ -14,11 +14,13 @@
 
 mod fastmath;
 mod graph;
+mod interval;
 mod kernels;
 mod parser;
 mod tape;
 
 pub use graph::{Bin, Graph, Id, Node, Un};
+pub use interval::Iv;
 pub use parser::{parse, Ast};
 pub use tape::{Program, CHUNK};
 
@@ -283,6 +285,18 @@ impl Compiled {
             .collect();
         let (g, roots) = self.graph.bind(values, &roots);
         Program::emit(&g, &roots)
+    }
+}
+
+impl Compiled {
+    /// Bounds of expression `which`'s value over the box `u` × `v` with the
+    /// parameters bound to `values` (see [`interval`]): every non-NaN
+    /// value the evaluation returns there lies inside. Empty: NaN
+    /// everywhere there.
+    pub fn value_bound(&self, values: &[f64], which: usize, u: (f64, f64), v: (f64, f64)) -> Iv {
+        assert_eq!(values.len(), self.params.len());
+        let (g, roots) = self.graph.bind(values, &[self.roots[which][0]]);
+        interval::bound(&g, roots[0], u, v)
     }
 }
 

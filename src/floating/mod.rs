@@ -65,6 +65,12 @@ pub struct FloatingOptions {
     pub planes: usize,
     /// Worker threads (None: rayon's default pool).
     pub threads: Option<usize>,
+    /// Stop a perspective sweep as soon as the surface's height bound
+    /// ([`crate::surface::HeightField::height_bound`]) shows that no later
+    /// point can rise into an uncovered elevation of the bin's rays (§4.2's
+    /// early exit, beyond a full column). The picture is the same either
+    /// way; only samples are saved.
+    pub height_bound: bool,
 }
 
 impl Default for FloatingOptions {
@@ -81,6 +87,7 @@ impl Default for FloatingOptions {
             coverage: false,
             planes: 80,
             threads: None,
+            height_bound: true,
         }
     }
 }

@@ -637,7 +637,37 @@ fn fill_holes(
                 && set[i * w + j - 1]
                 && !set[i * w + j + 1]
                 && set[i * w + j + 2];
-            if !(vertical || lateral || vertical2 || lateral2) {
+            // On the image's border a pixel has one lateral neighbour (or
+            // one vertical): a gap of up to eight along the border, between
+            // its set ends.
+            let along = |k: usize, step: usize, n: usize| -> Option<usize> {
+                (2..=8)
+                    .map(|m| k + m * step)
+                    .take_while(|&q| q < n)
+                    .find(|&q| set[q])
+            };
+            let border_v = (j == 0 || j + 1 == w)
+                && i > 0
+                && i + 2 < h
+                && set[(i - 1) * w + j]
+                && !set[(i + 1) * w + j];
+            let border_v = border_v
+                .then(|| along(i * w + j, w, w * h))
+                .flatten()
+                .map(|q| ((i - 1) * w + j, q));
+            let border_l = (i == 0 || i + 1 == h)
+                && j > 0
+                && j + 2 < w
+                && set[i * w + j - 1]
+                && !set[i * w + j + 1];
+            let border_l = border_l
+                .then(|| along(i * w + j, 1, (i + 1) * w))
+                .flatten()
+                .map(|q| (i * w + j - 1, q));
+            if !(vertical || lateral || vertical2 || lateral2)
+                && border_v.is_none()
+                && border_l.is_none()
+            {
                 continue;
             }
             let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
@@ -646,6 +676,8 @@ fn fill_holes(
                 lateral.then(|| (i * w + j - 1, i * w + j + 1)),
                 vertical2.then(|| ((i - 1) * w + j, (i + 2) * w + j)),
                 lateral2.then(|| (i * w + j - 1, i * w + j + 2)),
+                border_v,
+                border_l,
             ];
             for (a, b) in pairs.into_iter().flatten() {
                 let (Some(l1), Some(l2)) = (lam_of(set, depth, a, dir), lam_of(set, depth, b, dir))
@@ -1254,6 +1286,14 @@ struct RunState {
     /// Elevation range of the bin's rays (units of `rho`).
     th_lo: f64,
     th_hi: f64,
+    /// The highest elevation (units of `rho`) any point beyond the sweep's
+    /// position can reach, by the surface's height bound, when it is the
+    /// same for every position (the eye above the bound: the far end's);
+    /// else +∞ (see [`RadialSweep::bound_top`]).
+    top: f64,
+    /// Height of the bound above the eye when it is at or above the eye
+    /// (the highest elevation then falls along the sweep); else NaN.
+    zb: f64,
     /// Waiting for the sample at the start of the sweep.
     first: bool,
 }
@@ -1325,6 +1365,14 @@ pub(crate) fn elevation(z: f64, h: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// A bound's elevation (units of `rho`) raised by far more than the
+/// rounding of the samples' own elevations (about 1e-16 of their size), so
+/// that a sample at the bound's height never lies above it.
+#[inline]
+fn bound_margin(x: f64) -> f64 {
+    x + 1e-9 * (1.0 + x.abs())
 }
 
 /// The unit direction of azimuth (cos φ, sin φ) and pseudo-elevation
@@ -1989,6 +2037,34 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
         st.scale = (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
         let r0 = r0.max(1e-9 * st.scale);
+        // The height bound's highest elevation beyond ρ: atan2(w_max − E_w,
+        // ρ) falls with ρ when w_max ≥ E_w (taken at each position) and
+        // rises towards the far end r1 otherwise (one value).
+        (st.top, st.zb) = (f64::INFINITY, f64::NAN);
+        if let Some((_, wmax)) = ctx
+            .opts
+            .height_bound
+            .then(|| ctx.field.height_bound())
+            .flatten()
+        {
+            if self.fine.is_none() {
+                let wr = wmax - e.z;
+                // (the highest elevation over the whole sweep: at its start
+                // or at its end)
+                let highest = if wr >= 0.0 {
+                    st.zb = wr;
+                    bound_margin(ppr * elevation(wr, r0))
+                } else {
+                    st.top = bound_margin(ppr * elevation(wr, r1));
+                    st.top
+                };
+                if highest < st.th_lo {
+                    // Every point of the plane lies below the bin's rays.
+                    self.stats.early_exit += 1;
+                    return false;
+                }
+            }
+        }
         st.slots = [None, None];
         st.p = 0;
         st.rho = r0;
@@ -2051,6 +2127,22 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.hstep = hstep;
         st.halvings = 0;
         true
+    }
+
+    /// The highest elevation (units of `rho`) that a span after the
+    /// sweep's position `st.rho` can reach: the height bound's (see
+    /// [`RunState::top`]), or the current sample's if higher; +∞ without a
+    /// bound.
+    #[inline]
+    fn bound_top(&self, st: &RunState) -> f64 {
+        let mut top = st.top;
+        if !st.zb.is_nan() {
+            top = bound_margin(self.ppr * elevation(st.zb, st.rho));
+        }
+        match &st.slots[st.p] {
+            Some(a) if a.rho > top => a.rho,
+            _ => top,
+        }
     }
 
     /// World size of a pixel at sample `s`.
@@ -2143,6 +2235,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 self.stats.early_exit += 1;
                 return false;
             }
+            // Or nothing beyond can rise into an uncovered elevation of the
+            // rays: every later span lies below the larger of the bound
+            // and the current sample (its first end).
+            let top = self.bound_top(st);
+            if top < st.th_hi && self.cov.covers(st.th_lo, top) {
+                self.stats.early_exit += 1;
+                return false;
+            }
             if !self.step_start(st) {
                 return false;
             }
@@ -2163,6 +2263,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let (e, d) = (ctx.cam.eye, ctx.cam.d);
         let jobs = &self.jobs;
         let out = &mut self.out;
+        // Hits on the side the span did not reveal: the ray may cross the
+        // surface before (a grazing crest beside the bin's plane, which
+        // Newton stepped over to the crest's far side).
+        let mut suspect: Vec<(u32, f64)> = Vec::new();
         let evals = super::refine::newton(
             ctx,
             jobs.len(),
@@ -2170,14 +2274,29 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             |k| (e, jobs[k].dir),
             |k| (jobs[k].lo, jobs[k].hi, jobs[k].fp),
             &mut self.solver,
-            |k, _, q, h| {
+            |k, lam, q, h| {
                 let j = &jobs[k];
                 let depth = (q - e).dot(d);
                 let px = &mut out[j.slot as usize].1;
                 super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), h);
+                if px.side != j.side {
+                    suspect.push((k as u32, lam));
+                }
             },
         );
         self.stats.refine_evals += evals;
+        for &(k, lam) in &suspect {
+            let j = self.jobs[k as usize];
+            // The first crossing from the seen side before the hit, if any.
+            if let Some((l, hs)) =
+                self.march(j.dir, j.lo - 8.0 * j.fp, lam - 0.5 * j.fp, j.fp, j.side)
+            {
+                let q = e + l * j.dir;
+                let depth = (q - e).dot(d);
+                let px = &mut self.out[j.slot as usize].1;
+                super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), &hs);
+            }
+        }
         let mut failed = std::mem::take(&mut self.failed);
         failed.clear();
         failed.extend_from_slice(self.solver.failed());

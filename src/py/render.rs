@@ -92,6 +92,9 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
     if let Some(v) = o.take("threads")? {
         f.threads = Some(v);
     }
+    if let Some(v) = o.take("height_bound")? {
+        f.height_bound = v;
+    }
     Ok(f)
 }
 
@@ -134,6 +137,13 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   centre. With `antialias` it gives both directions;
 /// * `planes` (80, floating_horizon): number of sampling planes;
 /// * `threads`: worker threads (default: all); output is identical for any;
+/// * `height_bound` (True): in perspective, stop each vertical plane's
+///   sweep once the surface's height bound (an expression's interval bound
+///   over the domain, a grid's range; none for callables) shows that no
+///   point further on can rise into an elevation of the plane's pixels
+///   that is not already covered — a landscape seen from a low eye stops
+///   at the first ridge that hides the rest. The picture is identical
+///   either way (`False` sweeps every plane to the domain's end);
 /// * `texture` (floating_column): an (H, W) array over the surface's
 ///   domain, laid out like a height grid's z, multiplying each pixel's
 ///   intensity and rgb at the pixel's (u, v) (see [`texture_from_py`]);

@@ -964,6 +964,18 @@ impl PyFunction {
         domain_pair(self.dyn_field().domain())
     }
 
+    /// (lo, hi) bounding every finite value of f over the domain, by
+    /// interval arithmetic on the expression (possibly loose, never too
+    /// narrow); None for a callable or where no finite bound follows.
+    ///
+    /// >>> import fcol
+    /// >>> fcol.Function("3*sin(u*cos(v))", domain=((-5, 5), (-5, 5))).height_bound
+    /// (-3.0000000000000275, 3.0000000000000275)
+    #[getter]
+    fn height_bound(&self) -> Option<(f64, f64)> {
+        self.dyn_field().height_bound()
+    }
+
     /// The expression string, or None for a callable.
     #[getter]
     fn expr(&self) -> Option<String> {
@@ -1240,6 +1252,14 @@ impl PyHeightGrid {
     fn domain(&self) -> ((f64, f64), (f64, f64)) {
         let d = self.grid.domain();
         ((d.u0, d.u1), (d.v0, d.v1))
+    }
+
+    /// (lo, hi) bounding the interpolant: the finite samples' range
+    /// (bilinear), widened for bicubic's overshoot (Keys' weights: by up to
+    /// 0.28 of the range on each side); None when no sample is finite.
+    #[getter]
+    fn height_bound(&self) -> Option<(f64, f64)> {
+        self.grid.height_bound()
     }
 
     fn __repr__(&self) -> String {

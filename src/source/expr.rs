@@ -155,6 +155,8 @@ pub struct ExprHeight {
     domain: Domain,
     grad: Arc<Program>,
     value: Arc<Program>,
+    /// Interval bounds of f over the domain (None: unbounded).
+    range: Option<(f64, f64)>,
 }
 
 impl ExprHeight {
@@ -170,6 +172,7 @@ impl ExprHeight {
         ExprHeight {
             grad: bound.program(1),
             value: bound.program(0),
+            range: value_range(&bound, domain),
             bound,
             domain,
         }
@@ -197,9 +200,26 @@ impl ExprHeight {
     }
 }
 
+/// Interval bounds of the expression's value over `domain` (widened by
+/// 1e-9 of its size, for evaluations a rounding outside); None where a
+/// bound is infinite or f is NaN everywhere.
+fn value_range(bound: &Bound, d: Domain) -> Option<(f64, f64)> {
+    let (pu, pv) = (1e-9 * (d.u1 - d.u0), 1e-9 * (d.v1 - d.v0));
+    let iv = bound.compiled.value_bound(
+        &bound.values,
+        0,
+        (d.u0 - pu, d.u1 + pu),
+        (d.v0 - pv, d.v1 + pv),
+    );
+    (iv.lo.is_finite() && iv.hi.is_finite() && iv.lo <= iv.hi).then_some((iv.lo, iv.hi))
+}
+
 impl HeightField for ExprHeight {
     fn domain(&self) -> Domain {
         self.domain
+    }
+    fn height_bound(&self) -> Option<(f64, f64)> {
+        self.range
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         // Tiny batches take the one-point path (same results, bit for bit).

@@ -91,6 +91,8 @@ pub struct HeightGrid {
     /// The original shape (before a single row/column is doubled).
     shape: (usize, usize),
     domain: Domain,
+    /// Bounds of the interpolant (see [`HeightGrid::value_range`]).
+    range: Option<(f64, f64)>,
 }
 
 fn extend_line(line: &[f64]) -> (f64, f64) {
@@ -182,10 +184,12 @@ impl HeightGrid {
             ext: Vec::new(),
             shape: (ny, nx),
             domain,
+            range: None,
         };
         if interp == Interpolation::Bicubic {
             g.build_ext();
         }
+        g.range = g.value_range();
         Ok(g)
     }
 
@@ -319,9 +323,45 @@ pub fn keys(t: f64) -> ([f64; 4], [f64; 4]) {
     )
 }
 
+impl HeightGrid {
+    /// Bounds of the interpolant: bilinear values are convex combinations
+    /// of the samples; a bicubic value is Σ wᵢ zᵢ over the extended samples
+    /// with Σ wᵢ = 1 and Σ |wᵢ| ≤ 1.25² (Keys' weights at a = −0.5: the two
+    /// negative ones add up to −t(1 − t)/2 ≥ −1/8 per axis), so within
+    /// 1.5625·R/2 of the middle of their range R. Widened by 1e-12 of the
+    /// magnitude for rounding. None: no finite sample.
+    fn value_range(&self) -> Option<(f64, f64)> {
+        let src = if self.interp == Interpolation::Bicubic {
+            &self.ext
+        } else {
+            &self.z
+        };
+        let (lo, hi) = src
+            .iter()
+            .filter(|x| x.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        if lo > hi {
+            return None;
+        }
+        let (lo, hi) = if self.interp == Interpolation::Bicubic {
+            let (c, r) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+            (c - 1.5625 * r, c + 1.5625 * r)
+        } else {
+            (lo, hi)
+        };
+        let m = 1e-12 * lo.abs().max(hi.abs()) + f64::MIN_POSITIVE;
+        (lo.is_finite() && hi.is_finite()).then_some((lo - m, hi + m))
+    }
+}
+
 impl HeightField for HeightGrid {
     fn domain(&self) -> Domain {
         self.domain
+    }
+    fn height_bound(&self) -> Option<(f64, f64)> {
+        self.range
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
@@ -390,5 +430,69 @@ mod tests {
         let s = g.eval(0.25, 6.0);
         assert_eq!((s.f, s.fu, s.fv), (1.5, 2.0, 0.0));
         assert_eq!(g.domain(), Domain::new(0.0, 1.0, 5.0, 7.0).unwrap());
+    }
+
+    /// Every finite value of the interpolant, sampled densely (cell
+    /// corners, edges and centres included), lies within the height bound;
+    /// the bicubic bound is reached (to 1 %) by the pattern that makes
+    /// Keys' overshoot largest, ±1 in pairs along both axes.
+    #[test]
+    fn height_bound_holds_and_is_tight_for_bicubic() {
+        let pairs = |k: usize| if (k / 2) % 2 == 0 { -1.0 } else { 1.0 };
+        let n = 12;
+        let mut worst = Vec::new();
+        let mut rough = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                worst.push(pairs(i + 1) * pairs(j + 1));
+                let x = ((i * 7 + j * 13) % 11) as f64 - 5.0;
+                rough.push(if (i, j) == (5, 6) {
+                    f64::NAN
+                } else {
+                    x * x * 0.1
+                });
+            }
+        }
+        for (z, tight) in [(&worst, true), (&rough, false)] {
+            for interp in [Interpolation::Bilinear, Interpolation::Bicubic] {
+                let g = HeightGrid::new(z.clone(), n, n, 0.0, 1.0, 0.0, 1.0, interp).unwrap();
+                let (lo, hi) = g.height_bound().unwrap();
+                let (mut a, mut b) = (f64::INFINITY, f64::NEG_INFINITY);
+                let m = 8 * (n - 1);
+                for p in 0..=m {
+                    for q in 0..=m {
+                        let f = g.eval(q as f64 / 8.0, p as f64 / 8.0).f;
+                        if f.is_finite() {
+                            assert!(lo <= f && f <= hi, "{interp:?}: {f} outside [{lo}, {hi}]");
+                            a = a.min(f);
+                            b = b.max(f);
+                        }
+                    }
+                }
+                if tight && interp == Interpolation::Bilinear {
+                    assert!(
+                        (hi - 1.0).abs() < 1e-9 && (lo + 1.0).abs() < 1e-9,
+                        "{lo} {hi}"
+                    );
+                }
+                if tight && interp == Interpolation::Bicubic {
+                    // Inside, Keys' weights overshoot the samples' range by
+                    // up to 1.25² (reached at cell centres); the border's
+                    // extrapolated samples (3z₀ − 3z₁ + z₂) widen it further.
+                    assert!(b > 1.5 && a < -1.5, "{interp:?}: sampled [{a}, {b}]");
+                }
+            }
+        }
+        let g = HeightGrid::new(
+            vec![f64::NAN; 4],
+            2,
+            2,
+            0.0,
+            1.0,
+            0.0,
+            1.0,
+            Interpolation::Bilinear,
+        );
+        assert_eq!(g.unwrap().height_bound(), None);
     }
 }
