@@ -92,6 +92,14 @@ pub trait HeightField: Sync {
         None
     }
 
+    /// An upper bound of every finite value of f over the part of the
+    /// domain in [u0, u1] × [v0, v1] (−∞: none there), where the source
+    /// keeps local bounds cheaply (grids); None: only the global bound of
+    /// [`Self::height_bound`].
+    fn height_max_in(&self, _u0: f64, _u1: f64, _v0: f64, _v1: f64) -> Option<f64> {
+        None
+    }
+
     /// Evaluate f alone at one point.
     fn eval_value(&self, u: f64, v: f64) -> f64 {
         let mut out = [0.0];

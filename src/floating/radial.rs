@@ -1162,6 +1162,10 @@ impl<'b> Runs<'b> {
     }
 }
 
+/// Stretches of a sweep with their own height bound (see
+/// [`RadialSweep::local_bounds`]).
+const SEGMENTS: usize = 64;
+
 /// Bins per group of [`Runs::group_rays`] (one task: its rays, then its
 /// sweeps).
 const GROUP: usize = 32;
@@ -1637,6 +1641,14 @@ struct RadialSweep<'c, 'a> {
     log: Vec<Sample>,
     events: Vec<Event>,
     points: Vec<f64>,
+    /// With a source's local height bounds (see
+    /// [`crate::surface::HeightField::height_max_in`]): for each of
+    /// [`SEGMENTS`] equal stretches of the sweep, the highest elevation
+    /// (units of `rho`) any point from it to the sweep's end can reach; and
+    /// the stretches per unit of ρ from the sweep's start `seg_r0`.
+    seg: Vec<f64>,
+    seg_r0: f64,
+    seg_inv: f64,
     /// Without coverage: the pixels (indices) whose solve found no hit on
     /// their ray near the span that revealed them (their ray passes by the
     /// sheet the bin's plane met), dropped from `out`.
@@ -1682,6 +1694,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             events: Vec::new(),
             points: Vec::new(),
             missed: Vec::new(),
+            seg: Vec::new(),
+            seg_r0: 0.0,
+            seg_inv: 0.0,
         }
     }
 
@@ -2041,6 +2056,16 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // ρ) falls with ρ when w_max ≥ E_w (taken at each position) and
         // rises towards the far end r1 otherwise (one value).
         (st.top, st.zb) = (f64::INFINITY, f64::NAN);
+        self.seg.clear();
+        if ctx.opts.height_bound && self.fine.is_none() {
+            self.local_bounds(r0, r1);
+        }
+        if let Some(&first) = self.seg.first() {
+            if first < st.th_lo {
+                self.stats.early_exit += 1;
+                return false;
+            }
+        }
         if let Some((_, wmax)) = ctx
             .opts
             .height_bound
@@ -2139,10 +2164,62 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if !st.zb.is_nan() {
             top = bound_margin(self.ppr * elevation(st.zb, st.rho));
         }
+        if !self.seg.is_empty() {
+            let x = (st.rho - self.seg_r0) * self.seg_inv;
+            let k = if x > 0.0 { x as usize } else { 0 };
+            top = top.min(self.seg[k.min(self.seg.len() - 1)]);
+        }
         match &st.slots[st.p] {
             Some(a) if a.rho > top => a.rho,
             _ => top,
         }
+    }
+
+    /// [`Self::seg`] for the sweep over ρ ∈ [r0, r1], where the source keeps
+    /// local height bounds (else left empty): each stretch's highest point
+    /// lies in the bounding box of its ends' (u, v) (clamped to the domain,
+    /// as the samples are), and its highest elevation at its near end when
+    /// that point is at or above the eye, else at its far end.
+    fn local_bounds(&mut self, r0: f64, r1: f64) {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let d = ctx.frame.domain;
+        let eh = self.eh;
+        let at = |r: f64| {
+            let p = DVec2::new(e.x, e.y) + r * eh;
+            DVec2::new(p.x.clamp(d.u0, d.u1), p.y.clamp(d.v0, d.v1))
+        };
+        let len = (r1 - r0) / SEGMENTS as f64;
+        let pad = 1e-9 * (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
+        let mut seg = std::mem::take(&mut self.seg);
+        seg.clear();
+        for k in 0..SEGMENTS {
+            let a = r0 + k as f64 * len;
+            let b = if k + 1 == SEGMENTS { r1 } else { a + len };
+            let (pa, pb) = (at(a), at(b));
+            let Some(zm) = ctx.field.height_max_in(
+                pa.x.min(pb.x) - pad,
+                pa.x.max(pb.x) + pad,
+                pa.y.min(pb.y) - pad,
+                pa.y.max(pb.y) + pad,
+            ) else {
+                seg.clear();
+                self.seg = seg;
+                return;
+            };
+            let wr = zm - e.z;
+            seg.push(if zm == f64::NEG_INFINITY {
+                f64::NEG_INFINITY
+            } else {
+                bound_margin(self.ppr * elevation(wr, if wr >= 0.0 { a } else { b }))
+            });
+        }
+        for k in (0..SEGMENTS - 1).rev() {
+            seg[k] = seg[k].max(seg[k + 1]);
+        }
+        self.seg = seg;
+        self.seg_r0 = r0;
+        self.seg_inv = 1.0 / len;
     }
 
     /// World size of a pixel at sample `s`.

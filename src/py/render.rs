@@ -139,7 +139,8 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 /// * `threads`: worker threads (default: all); output is identical for any;
 /// * `height_bound` (True): in perspective, stop each vertical plane's
 ///   sweep once the surface's height bound (an expression's interval bound
-///   over the domain, a grid's range; none for callables) shows that no
+///   over the domain, a grid's block maxima along the plane; none for
+///   callables) shows that no
 ///   point further on can rise into an elevation of the plane's pixels
 ///   that is not already covered — a landscape seen from a low eye stops
 ///   at the first ridge that hides the rest. The picture is identical

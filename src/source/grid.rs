@@ -93,6 +93,40 @@ pub struct HeightGrid {
     domain: Domain,
     /// Bounds of the interpolant (see [`HeightGrid::value_range`]).
     range: Option<(f64, f64)>,
+    /// Upper bounds of the interpolant over blocks of cells (see
+    /// [`MaxPyramid`]).
+    maxes: MaxPyramid,
+}
+
+/// Level k holds, for each block of 2^k × 2^k cells, an upper bound of the
+/// interpolant over it (−∞ where no cell has a finite value): level 0 a
+/// cell's corners' maximum (bilinear) or the bound of its 16 kernel samples
+/// (bicubic, as [`HeightGrid::value_range`]), each level the maximum of the
+/// four blocks below.
+#[derive(Debug, Clone, Default)]
+struct MaxPyramid {
+    levels: Vec<(usize, usize, Vec<f64>)>,
+}
+
+impl MaxPyramid {
+    /// The bound over cells [i0, i1] × [j0, j1] (inclusive, rows × columns).
+    fn max(&self, i0: usize, i1: usize, j0: usize, j1: usize) -> f64 {
+        // The lowest level at which the range spans at most two blocks
+        // along each axis.
+        let mut k = 0;
+        while k + 1 < self.levels.len() && ((i1 >> k) - (i0 >> k) > 1 || (j1 >> k) - (j0 >> k) > 1)
+        {
+            k += 1;
+        }
+        let (ny, nx, m) = &self.levels[k];
+        let mut best = f64::NEG_INFINITY;
+        for i in (i0 >> k)..=((i1 >> k).min(ny - 1)) {
+            for j in (j0 >> k)..=((j1 >> k).min(nx - 1)) {
+                best = best.max(m[i * nx + j]);
+            }
+        }
+        best
+    }
 }
 
 fn extend_line(line: &[f64]) -> (f64, f64) {
@@ -185,11 +219,13 @@ impl HeightGrid {
             shape: (ny, nx),
             domain,
             range: None,
+            maxes: MaxPyramid::default(),
         };
         if interp == Interpolation::Bicubic {
             g.build_ext();
         }
         g.range = g.value_range();
+        g.maxes = g.max_pyramid();
         Ok(g)
     }
 
@@ -356,12 +392,84 @@ impl HeightGrid {
     }
 }
 
+impl HeightGrid {
+    fn max_pyramid(&self) -> MaxPyramid {
+        let (nx, ny) = (self.u.n - 1, self.v.n - 1);
+        let mut base = vec![f64::NEG_INFINITY; nx * ny];
+        let mut kernel = Vec::with_capacity(16);
+        for i in 0..ny {
+            for j in 0..nx {
+                // The samples the cell's interpolant combines.
+                kernel.clear();
+                if self.interp == Interpolation::Bicubic {
+                    let w = self.u.n + 2;
+                    for a in 0..4 {
+                        kernel.extend_from_slice(&self.ext[(i + a) * w + j..(i + a) * w + j + 4]);
+                    }
+                } else {
+                    let k = i * self.u.n + j;
+                    kernel.extend_from_slice(&self.z[k..k + 2]);
+                    kernel.extend_from_slice(&self.z[k + self.u.n..k + self.u.n + 2]);
+                }
+                // (a NaN among them: the cell is a hole)
+                if kernel.iter().any(|x| x.is_nan()) {
+                    continue;
+                }
+                let (lo, hi) = kernel
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    });
+                let hi = if self.interp == Interpolation::Bicubic {
+                    0.5 * (lo + hi) + 1.5625 * 0.5 * (hi - lo)
+                } else {
+                    hi
+                };
+                base[i * nx + j] = hi + 1e-12 * hi.abs().max(lo.abs()) + f64::MIN_POSITIVE;
+            }
+        }
+        let mut levels = vec![(ny, nx, base)];
+        while levels.last().is_some_and(|(h, w, _)| *h > 1 || *w > 1) {
+            let (h, w, m) = levels.last().expect("a level");
+            let (h2, w2) = (h.div_ceil(2), w.div_ceil(2));
+            let mut up = vec![f64::NEG_INFINITY; h2 * w2];
+            for i in 0..*h {
+                for j in 0..*w {
+                    let x = &mut up[(i / 2) * w2 + j / 2];
+                    *x = x.max(m[i * w + j]);
+                }
+            }
+            levels.push((h2, w2, up));
+        }
+        MaxPyramid { levels }
+    }
+
+    /// The cells [k0, k1] of an axis that a coordinate interval can touch
+    /// (one cell of slack each way for rounding).
+    fn cells(a: &Axis, x0: f64, x1: f64) -> Option<(usize, usize)> {
+        let (s0, s1) = ((x0 - a.x0) / a.dx, (x1 - a.x0) / a.dx);
+        let (s0, s1) = (s0.min(s1), s0.max(s1));
+        if !(s0.is_finite() && s1.is_finite()) {
+            return None;
+        }
+        let top = (a.n - 2) as f64;
+        let k0 = (s0.floor() - 1.0).clamp(0.0, top) as usize;
+        let k1 = (s1.floor() + 1.0).clamp(0.0, top) as usize;
+        Some((k0, k1))
+    }
+}
+
 impl HeightField for HeightGrid {
     fn domain(&self) -> Domain {
         self.domain
     }
     fn height_bound(&self) -> Option<(f64, f64)> {
         self.range
+    }
+    fn height_max_in(&self, u0: f64, u1: f64, v0: f64, v1: f64) -> Option<f64> {
+        let (j0, j1) = Self::cells(&self.u, u0, u1)?;
+        let (i0, i1) = Self::cells(&self.v, v0, v1)?;
+        Some(self.maxes.max(i0, i1, j0, j1))
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
@@ -494,5 +602,56 @@ mod tests {
             Interpolation::Bilinear,
         );
         assert_eq!(g.unwrap().height_bound(), None);
+    }
+
+    /// The local bound over random boxes holds for every finite value
+    /// sampled densely inside them, and is at most the global bound.
+    #[test]
+    fn local_height_bounds_hold() {
+        let (nx, ny) = (37, 29);
+        let mut z = Vec::new();
+        for i in 0..ny {
+            for j in 0..nx {
+                let x = (i * 31 + j * 17) % 23;
+                z.push(if (i, j) == (10, 12) {
+                    f64::NAN
+                } else {
+                    (x as f64 * 0.37).sin() * 5.0
+                });
+            }
+        }
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for interp in [Interpolation::Bilinear, Interpolation::Bicubic] {
+            // A north-up grid (negative dv) too.
+            for (v0, dv) in [(0.0, 0.5), (14.0, -0.5)] {
+                let g = HeightGrid::new(z.clone(), ny, nx, -3.0, 0.25, v0, dv, interp).unwrap();
+                let d = g.domain();
+                let (_, hi_all) = g.height_bound().unwrap();
+                for _ in 0..200 {
+                    let (a, b) = (d.u0 + (d.u1 - d.u0) * rnd(), d.u0 + (d.u1 - d.u0) * rnd());
+                    let (c, e) = (d.v0 + (d.v1 - d.v0) * rnd(), d.v0 + (d.v1 - d.v0) * rnd());
+                    let (u0, u1, w0, w1) = (a.min(b), a.max(b), c.min(e), c.max(e));
+                    let m = g.height_max_in(u0, u1, w0, w1).unwrap();
+                    assert!(m <= hi_all);
+                    for p in 0..=20 {
+                        for q in 0..=20 {
+                            let u = u0 + (u1 - u0) * q as f64 / 20.0;
+                            let v = w0 + (w1 - w0) * p as f64 / 20.0;
+                            let f = g.eval(u, v).f;
+                            assert!(
+                                f.is_nan() || f <= m,
+                                "{interp:?}: f({u}, {v}) = {f} above {m}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }
