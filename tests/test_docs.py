@@ -32,14 +32,22 @@ def test_module_docstring_examples(name):
 
 
 def test_native_docstring_examples():
-    """Classes of the extension module carry examples too."""
+    """Classes of the extension module, their methods and properties carry
+    examples too."""
     runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     finder = doctest.DocTestFinder(exclude_empty=True)
     n = 0
     for name in dir(fcol._fcol):
         obj = getattr(fcol._fcol, name)
-        if isinstance(obj, type) and obj.__doc__ and ">>>" in obj.__doc__:
-            for test in finder.find(obj.__doc__, f"fcol._fcol.{name}", globs={"fcol": fcol}):
+        if not isinstance(obj, type):
+            continue
+        # The class's own examples, then those of its methods and properties.
+        docs = [(f"fcol._fcol.{name}", obj.__doc__)]
+        docs += [(f"fcol._fcol.{name}.{k}", getattr(v, "__doc__", None)) for k, v in vars(obj).items()]
+        for label, doc in docs:
+            if not (isinstance(doc, str) and ">>>" in doc):
+                continue
+            for test in finder.find(doc, label, globs={"fcol": fcol}):
                 runner.run(test)
                 n += len(test.examples)
     assert n > 0

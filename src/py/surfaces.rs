@@ -969,8 +969,9 @@ impl PyFunction {
     /// narrow); None for a callable or where no finite bound follows.
     ///
     /// >>> import fcol
-    /// >>> fcol.Function("3*sin(u*cos(v))", domain=((-5, 5), (-5, 5))).height_bound
-    /// (-3.0000000000000275, 3.0000000000000275)
+    /// >>> lo, hi = fcol.Function("3*sin(u*cos(v))", domain=((-5, 5), (-5, 5))).height_bound
+    /// >>> round(lo, 9), round(hi, 9)
+    /// (-3.0, 3.0)
     #[getter]
     fn height_bound(&self) -> Option<(f64, f64)> {
         self.dyn_field().height_bound()
