@@ -2364,9 +2364,11 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.stats.refine_evals += evals;
         for &(k, lam) in &suspect {
             let j = self.jobs[k as usize];
-            // The first crossing from the seen side before the hit, if any.
+            // The first crossing from the seen side before the hit, if any
+            // (up to just before it: a crest's sliver can be thinner than
+            // the march's step).
             if let Some((l, hs)) =
-                self.march(j.dir, j.lo - 8.0 * j.fp, lam - 0.5 * j.fp, j.fp, j.side)
+                self.march(j.dir, j.lo - 8.0 * j.fp, lam - 1e-3 * j.fp, j.fp, j.side)
             {
                 let q = e + l * j.dir;
                 let depth = (q - e).dot(d);
