@@ -2344,6 +2344,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // surface before (a grazing crest beside the bin's plane, which
         // Newton stepped over to the crest's far side).
         let mut suspect: Vec<(u32, f64)> = Vec::new();
+        let under = ctx.field.height_bound().is_none_or(|(lo, _)| e.z > lo);
+        let mut entry: Vec<(u32, f64)> = Vec::new();
         let evals = super::refine::newton(
             ctx,
             jobs.len(),
@@ -2358,10 +2360,56 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), h);
                 if px.side != j.side {
                     suspect.push((k as u32, lam));
+                } else if px.side < 0 && under {
+                    entry.push((k as u32, lam));
                 }
             },
         );
         self.stats.refine_evals += evals;
+        // An under-side hit whose ray enters the domain above the surface
+        // has crossed it on the way (seen through the domain's edge, the
+        // under side is entered from below): the entry points evaluated in
+        // one batch, the ray marched from there where it is above.
+        if !entry.is_empty() {
+            let dom = ctx.frame.domain;
+            let mut starts = Vec::with_capacity(entry.len());
+            let (mut us, mut vs) = (Vec::new(), Vec::new());
+            for &(k, lam) in &entry {
+                let j = &self.jobs[k as usize];
+                let range = super::sampling::domain_range(
+                    &dom,
+                    DVec2::new(e.x, e.y),
+                    DVec2::new(j.dir.x, j.dir.y),
+                );
+                let Some((l_in, _)) = range else { continue };
+                let l_in = l_in.max(0.0) + 1e-6 * j.fp;
+                if l_in < lam - j.fp {
+                    let p = e + l_in * j.dir;
+                    if dom.contains(p.x, p.y) {
+                        starts.push((k, lam, l_in, p.z));
+                        us.push(p.x);
+                        vs.push(p.y);
+                    }
+                }
+            }
+            let mut hs = vec![HeightSample::default(); us.len()];
+            if !us.is_empty() {
+                ctx.field.eval_batch(&us, &vs, &mut hs);
+                self.stats.refine_evals += us.len() as u64;
+            }
+            for (&(k, lam, l_in, z), h) in starts.iter().zip(&hs) {
+                if !(h.is_finite() && z > h.f) {
+                    continue;
+                }
+                let j = self.jobs[k as usize];
+                if let Some((l, hs)) = self.march(j.dir, l_in, lam - 1e-3 * j.fp, j.fp, 1) {
+                    let q = e + l * j.dir;
+                    let depth = (q - e).dot(d);
+                    let px = &mut self.out[j.slot as usize].1;
+                    super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), &hs);
+                }
+            }
+        }
         for &(k, lam) in &suspect {
             let j = self.jobs[k as usize];
             // The first crossing from the seen side before the hit, if any
