@@ -22,6 +22,8 @@ mod scratch;
 pub mod shade;
 pub mod source;
 pub mod surface;
+#[cfg(test)]
+mod test_rng;
 pub mod texture;
 
 #[cfg(feature = "python")]

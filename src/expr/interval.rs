@@ -155,7 +155,8 @@ impl Iv {
             self.down(|x| 1.0 / x)
         }
     }
-    /// x^n for an integer n (repeated multiplication, as the evaluation).
+    /// x^n for an integer n (repeated multiplication, as the evaluation:
+    /// x^0 is 1 even for NaN; otherwise empty stays empty).
     fn powi(self, n: i32) -> Iv {
         let m = n.unsigned_abs() as i32;
         let p = if m == 0 {
@@ -313,23 +314,11 @@ pub fn bound(g: &Graph, root: Id, u: (f64, f64), v: (f64, f64)) -> Iv {
             Node::Param(_) => WHOLE,
             Node::Un(op, a) => un(op, at(a)),
             // x·x is a square (no dependency problem).
-            Node::Bin(Bin::Mul, a, b) if a == b => {
-                let x = at(a);
-                if x.is_empty() {
-                    EMPTY
-                } else {
-                    x.powi(2).widen(REL, 0.0)
-                }
-            }
+            Node::Bin(Bin::Mul, a, b) if a == b => at(a).powi(2).widen(REL, 0.0),
             Node::Bin(op, a, b) => bin(op, at(a), at(b)),
-            Node::PowI(a, k) => {
-                let x = at(a);
-                if x.is_empty() {
-                    EMPTY
-                } else {
-                    x.powi(k).widen(REL * (1.0 + k.unsigned_abs() as f64), 0.0)
-                }
-            }
+            Node::PowI(a, k) => at(a)
+                .powi(k)
+                .widen(REL * (1.0 + k.unsigned_abs() as f64), 0.0),
             Node::PowF(a, c) => powf(at(a), c),
             // The condition's NaN does not propagate: either branch.
             Node::Select(_, _, x, y) => at(x).union(at(y)),

@@ -269,6 +269,16 @@ impl Compiled {
         self.graph.nodes.len()
     }
 
+    /// Bounds of expression `which`'s value over the box `u` × `v` with the
+    /// parameters bound to `values` (see [`interval`]): every non-NaN
+    /// value the evaluation returns there lies inside. Empty: NaN
+    /// everywhere there.
+    pub fn value_bound(&self, values: &[f64], which: usize, u: (f64, f64), v: (f64, f64)) -> Iv {
+        assert_eq!(values.len(), self.params.len());
+        let (g, roots) = self.graph.bind(values, &[self.roots[which][0]]);
+        interval::bound(&g, roots[0], u, v)
+    }
+
     /// A program computing, for each expression in turn, its value and then
     /// its derivatives up to `order` (≤ the compiled order), with the
     /// parameters bound to `values` (`values.len() == params().len()`).
@@ -285,18 +295,6 @@ impl Compiled {
             .collect();
         let (g, roots) = self.graph.bind(values, &roots);
         Program::emit(&g, &roots)
-    }
-}
-
-impl Compiled {
-    /// Bounds of expression `which`'s value over the box `u` × `v` with the
-    /// parameters bound to `values` (see [`interval`]): every non-NaN
-    /// value the evaluation returns there lies inside. Empty: NaN
-    /// everywhere there.
-    pub fn value_bound(&self, values: &[f64], which: usize, u: (f64, f64), v: (f64, f64)) -> Iv {
-        assert_eq!(values.len(), self.params.len());
-        let (g, roots) = self.graph.bind(values, &[self.roots[which][0]]);
-        interval::bound(&g, roots[0], u, v)
     }
 }
 

@@ -65,8 +65,10 @@ pub struct FloatingOptions {
     pub planes: usize,
     /// Worker threads (None: rayon's default pool).
     pub threads: Option<usize>,
-    /// Stop a perspective sweep as soon as the surface's height bound
-    /// ([`crate::surface::HeightField::height_bound`]) shows that no later
+    /// Stop a perspective sweep as soon as the surface's height bounds
+    /// ([`crate::surface::HeightField::height_bound`], and
+    /// [`crate::surface::HeightField::height_max_in`] along the plane where
+    /// the source keeps local ones) show that no later
     /// point can rise into an uncovered elevation of the bin's rays (§4.2's
     /// early exit, beyond a full column). The picture is the same either
     /// way; only samples are saved.

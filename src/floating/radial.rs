@@ -576,8 +576,8 @@ impl PxRate {
 /// that plane can pass through a notch (next to a crest) that the pixel's
 /// own ray does not. Unrevealed pixels between two revealed neighbours
 /// (above and below, or left and right, next to it or, across a gap of two
-/// pixels, one further on) at similar depths are searched on their own ray,
-/// between the neighbours' hits.
+/// pixels — up to eight along the image's border — further on) at similar
+/// depths are searched on their own ray, between the neighbours' hits.
 fn fill_holes(
     ctx: &Ctx<'_>,
     off: (f64, f64),
@@ -625,59 +625,35 @@ fn fill_holes(
             let j = jj;
             let vertical = i > 0 && i + 1 < h && set[(i - 1) * w + j] && set[(i + 1) * w + j];
             let lateral = j > 0 && j + 1 < w && set[i * w + j - 1] && set[i * w + j + 1];
-            // The first pixel of a gap of two (its partner is searched next,
-            // between it and the far neighbour).
-            let vertical2 = i > 0
-                && i + 2 < h
-                && set[(i - 1) * w + j]
-                && !set[(i + 1) * w + j]
-                && set[(i + 2) * w + j];
-            let lateral2 = j > 0
-                && j + 2 < w
-                && set[i * w + j - 1]
-                && !set[i * w + j + 1]
-                && set[i * w + j + 2];
-            // On the image's border a pixel has one lateral neighbour (or
-            // one vertical): a gap of up to eight along the border, between
-            // its set ends.
-            let along = |k: usize, step: usize, n: usize| -> Option<usize> {
-                (2..=8)
+            // The first pixel of a gap (its partners are searched next,
+            // between it and the far neighbour): of two pixels, or on the
+            // image's border, where a pixel has one lateral (or vertical)
+            // neighbour, of up to eight.
+            let far = |k: usize, step: usize, n: usize, border: bool| -> Option<usize> {
+                let limit = if border { 8 } else { 2 };
+                (2..=limit)
                     .map(|m| k + m * step)
                     .take_while(|&q| q < n)
                     .find(|&q| set[q])
             };
-            let border_v = (j == 0 || j + 1 == w)
-                && i > 0
-                && i + 2 < h
-                && set[(i - 1) * w + j]
-                && !set[(i + 1) * w + j];
-            let border_v = border_v
-                .then(|| along(i * w + j, w, w * h))
-                .flatten()
-                .map(|q| ((i - 1) * w + j, q));
-            let border_l = (i == 0 || i + 1 == h)
-                && j > 0
-                && j + 2 < w
-                && set[i * w + j - 1]
-                && !set[i * w + j + 1];
-            let border_l = border_l
-                .then(|| along(i * w + j, 1, (i + 1) * w))
+            let vertical_far =
+                (i > 0 && i + 2 < h && set[(i - 1) * w + j] && !set[(i + 1) * w + j])
+                    .then(|| far(i * w + j, w, w * h, j == 0 || j + 1 == w))
+                    .flatten()
+                    .map(|q| ((i - 1) * w + j, q));
+            let lateral_far = (j > 0 && j + 2 < w && set[i * w + j - 1] && !set[i * w + j + 1])
+                .then(|| far(i * w + j, 1, (i + 1) * w, i == 0 || i + 1 == h))
                 .flatten()
                 .map(|q| (i * w + j - 1, q));
-            if !(vertical || lateral || vertical2 || lateral2)
-                && border_v.is_none()
-                && border_l.is_none()
-            {
+            if !(vertical || lateral) && vertical_far.is_none() && lateral_far.is_none() {
                 continue;
             }
             let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
             let pairs = [
                 vertical.then(|| ((i - 1) * w + j, (i + 1) * w + j)),
                 lateral.then(|| (i * w + j - 1, i * w + j + 1)),
-                vertical2.then(|| ((i - 1) * w + j, (i + 2) * w + j)),
-                lateral2.then(|| (i * w + j - 1, i * w + j + 2)),
-                border_v,
-                border_l,
+                vertical_far,
+                lateral_far,
             ];
             for (a, b) in pairs.into_iter().flatten() {
                 let (Some(l1), Some(l2)) = (lam_of(set, depth, a, dir), lam_of(set, depth, b, dir))
@@ -1577,6 +1553,21 @@ impl SpanConst {
     }
 }
 
+/// Buffers of [`RadialSweep::solve`]'s side checks, kept from bin to bin:
+/// the jobs (index, hit distance) whose hit lies on the side their span did
+/// not reveal, and those on the under side; for the latter the points where
+/// their rays enter the domain (job, hit, entry distance, height there) and
+/// the surface at them.
+#[derive(Default)]
+struct SideChecks {
+    suspect: Vec<(u32, f64)>,
+    entry: Vec<(u32, f64)>,
+    starts: Vec<(u32, f64, f64, f64)>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+    hs: Vec<HeightSample>,
+}
+
 /// One pixel of a bin to solve on its ray from the eye (see
 /// [`RadialSweep::solve`]).
 #[derive(Debug, Clone, Copy)]
@@ -1612,6 +1603,7 @@ struct RadialSweep<'c, 'a> {
     solver: super::refine::NewtonScratch,
     /// The jobs whose Newton failed (indices), for the march.
     failed: Vec<u32>,
+    checks: SideChecks,
     /// Screen pixels per radian of θ along the bin's plane (see [`bin_ppr`]).
     ppr: f64,
     /// Local pixels per unit of `rho` (see [`PxRate`]).
@@ -1679,6 +1671,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             jobs: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
             solver: Default::default(),
             failed: Vec::new(),
+            checks: SideChecks::default(),
             ppr: 1.5 * ctx.cam.focal,
             rate: PxRate::default(),
             srange: (-1.0, 1.0),
@@ -2058,36 +2051,27 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         (st.top, st.zb) = (f64::INFINITY, f64::NAN);
         self.seg.clear();
         if ctx.opts.height_bound && self.fine.is_none() {
+            // The highest elevation over the whole sweep, by the local
+            // bounds and by the global one (at its start or at its end).
+            let mut highest = f64::INFINITY;
             self.local_bounds(r0, r1);
-        }
-        if let Some(&first) = self.seg.first() {
-            if first < st.th_lo {
-                self.stats.early_exit += 1;
-                return false;
+            if let Some(&first) = self.seg.first() {
+                highest = first;
             }
-        }
-        if let Some((_, wmax)) = ctx
-            .opts
-            .height_bound
-            .then(|| ctx.field.height_bound())
-            .flatten()
-        {
-            if self.fine.is_none() {
+            if let Some((_, wmax)) = ctx.field.height_bound() {
                 let wr = wmax - e.z;
-                // (the highest elevation over the whole sweep: at its start
-                // or at its end)
-                let highest = if wr >= 0.0 {
+                highest = highest.min(if wr >= 0.0 {
                     st.zb = wr;
                     bound_margin(ppr * elevation(wr, r0))
                 } else {
                     st.top = bound_margin(ppr * elevation(wr, r1));
                     st.top
-                };
-                if highest < st.th_lo {
-                    // Every point of the plane lies below the bin's rays.
-                    self.stats.early_exit += 1;
-                    return false;
-                }
+                });
+            }
+            if highest < st.th_lo {
+                // Every point of the plane lies below the bin's rays.
+                self.stats.early_exit += 1;
+                return false;
             }
         }
         st.slots = [None, None];
@@ -2343,9 +2327,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // Hits on the side the span did not reveal: the ray may cross the
         // surface before (a grazing crest beside the bin's plane, which
         // Newton stepped over to the crest's far side).
-        let mut suspect: Vec<(u32, f64)> = Vec::new();
+        let mut ck = std::mem::take(&mut self.checks);
+        ck.suspect.clear();
+        ck.entry.clear();
         let under = ctx.field.height_bound().is_none_or(|(lo, _)| e.z > lo);
-        let mut entry: Vec<(u32, f64)> = Vec::new();
         let evals = super::refine::newton(
             ctx,
             jobs.len(),
@@ -2359,9 +2344,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let px = &mut out[j.slot as usize].1;
                 super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), h);
                 if px.side != j.side {
-                    suspect.push((k as u32, lam));
+                    ck.suspect.push((k as u32, lam));
                 } else if px.side < 0 && under {
-                    entry.push((k as u32, lam));
+                    ck.entry.push((k as u32, lam));
                 }
             },
         );
@@ -2370,11 +2355,12 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // has crossed it on the way (seen through the domain's edge, the
         // under side is entered from below): the entry points evaluated in
         // one batch, the ray marched from there where it is above.
-        if !entry.is_empty() {
+        if !ck.entry.is_empty() {
             let dom = ctx.frame.domain;
-            let mut starts = Vec::with_capacity(entry.len());
-            let (mut us, mut vs) = (Vec::new(), Vec::new());
-            for &(k, lam) in &entry {
+            ck.starts.clear();
+            ck.u.clear();
+            ck.v.clear();
+            for &(k, lam) in &ck.entry {
                 let j = &self.jobs[k as usize];
                 let range = super::sampling::domain_range(
                     &dom,
@@ -2383,34 +2369,32 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 );
                 let Some((l_in, _)) = range else { continue };
                 let l_in = l_in.max(0.0) + 1e-6 * j.fp;
-                if l_in < lam - j.fp {
-                    let p = e + l_in * j.dir;
-                    if dom.contains(p.x, p.y) {
-                        starts.push((k, lam, l_in, p.z));
-                        us.push(p.x);
-                        vs.push(p.y);
+                let p = e + l_in * j.dir;
+                if l_in < lam - j.fp && dom.contains(p.x, p.y) {
+                    ck.starts.push((k, lam, l_in, p.z));
+                    ck.u.push(p.x);
+                    ck.v.push(p.y);
+                }
+            }
+            // (grown only: a height field's batch writes every element)
+            if ck.hs.len() < ck.u.len() {
+                ck.hs.resize(ck.u.len(), HeightSample::default());
+            }
+            let hs = &mut ck.hs[..ck.u.len()];
+            if !hs.is_empty() {
+                ctx.field.eval_batch(&ck.u, &ck.v, hs);
+                self.stats.refine_evals += hs.len() as u64;
+            }
+            for (&(k, lam, l_in, z), h) in ck.starts.iter().zip(hs.iter()) {
+                if h.is_finite() && z > h.f {
+                    let j = self.jobs[k as usize];
+                    if let Some((l, hs)) = self.march(j.dir, l_in, lam - 1e-3 * j.fp, j.fp, 1) {
+                        self.put_hit(&j, l, &hs);
                     }
                 }
             }
-            let mut hs = vec![HeightSample::default(); us.len()];
-            if !us.is_empty() {
-                ctx.field.eval_batch(&us, &vs, &mut hs);
-                self.stats.refine_evals += us.len() as u64;
-            }
-            for (&(k, lam, l_in, z), h) in starts.iter().zip(&hs) {
-                if !(h.is_finite() && z > h.f) {
-                    continue;
-                }
-                let j = self.jobs[k as usize];
-                if let Some((l, hs)) = self.march(j.dir, l_in, lam - 1e-3 * j.fp, j.fp, 1) {
-                    let q = e + l * j.dir;
-                    let depth = (q - e).dot(d);
-                    let px = &mut self.out[j.slot as usize].1;
-                    super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), &hs);
-                }
-            }
         }
-        for &(k, lam) in &suspect {
+        for &(k, lam) in &ck.suspect {
             let j = self.jobs[k as usize];
             // The first crossing from the seen side before the hit, if any
             // (up to just before it: a crest's sliver can be thinner than
@@ -2418,12 +2402,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             if let Some((l, hs)) =
                 self.march(j.dir, j.lo - 8.0 * j.fp, lam - 1e-3 * j.fp, j.fp, j.side)
             {
-                let q = e + l * j.dir;
-                let depth = (q - e).dot(d);
-                let px = &mut self.out[j.slot as usize].1;
-                super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), &hs);
+                self.put_hit(&j, l, &hs);
             }
         }
+        self.checks = ck;
         let mut failed = std::mem::take(&mut self.failed);
         failed.clear();
         failed.extend_from_slice(self.solver.failed());
@@ -2431,18 +2413,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         for &k in &failed {
             let j = self.jobs[k as usize];
             match self.march(j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, j.side) {
-                Some((lam, hs)) => {
-                    let q = e + lam * j.dir;
-                    let depth = (q - e).dot(d);
-                    super::refine::finish(
-                        ctx,
-                        &mut self.out[j.slot as usize].1,
-                        j.dir,
-                        depth,
-                        DVec2::new(q.x, q.y),
-                        &hs,
-                    );
-                }
+                Some((lam, hs)) => self.put_hit(&j, lam, &hs),
                 None => {
                     // No hit near the span that revealed the pixel: its ray
                     // passes by the sheet the bin's plane met (up to half a
@@ -2463,6 +2434,22 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if !ctx.opts.coverage && !self.missed.is_empty() {
             self.out.retain(|(_, p)| p.set);
         }
+    }
+
+    /// The exact hit at distance `l` along job `j`'s ray into its pixel.
+    fn put_hit(&mut self, j: &BinJob, l: f64, hs: &HeightSample) {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let q = e + l * j.dir;
+        let px = &mut self.out[j.slot as usize].1;
+        super::refine::finish(
+            ctx,
+            px,
+            j.dir,
+            (q - e).dot(ctx.cam.d),
+            DVec2::new(q.x, q.y),
+            hs,
+        );
     }
 
     /// §5 corrections between samples a and b: the spans up to the last

@@ -521,13 +521,7 @@ mod tests {
     fn spans_equal_the_per_pixel_edge_test() {
         // The span search relies on the monotonicity of the rounded edge
         // functions; check it against testing every pixel of the box.
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = crate::test_rng::uniform(12345);
         for k in 0..2000 {
             let scale = if k % 3 == 0 { 4.0 } else { 40.0 };
             let mut v = [[0.0; 3]; 3];
