@@ -45,6 +45,7 @@ fn main() {
             "el" => el = Some(v.parse().unwrap()),
             "az" => az = Some(v.parse().unwrap()),
             "dist" => dist = Some(v.parse().unwrap()),
+            "tol" => o.refine_tol = v.parse().unwrap(),
             _ => panic!("unknown option {k}"),
         }
     }

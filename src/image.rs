@@ -10,7 +10,7 @@ use rayon::prelude::*;
 /// would otherwise run one after the other on the calling thread (about
 /// 40 MB for the four usual buffers of a 1920×1080 render).
 fn filled<T: Copy + Send + Sync>(n: usize, x: T) -> Vec<T> {
-    const PARALLEL: usize = 1 << 18;
+    const PARALLEL: usize = 1 << 16;
     if n < PARALLEL {
         return vec![x; n];
     }

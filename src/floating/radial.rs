@@ -256,15 +256,17 @@ fn bin_count(cam: &crate::camera::Camera) -> usize {
         }
         1.0
     };
-    // The border, then every 8th pixel of every 8th row (rows in parallel;
-    // the maximum does not depend on the order).
-    let mut sens: f64 = 1.0;
-    for j in 0..w {
-        sens = sens.max(probe(0, j)).max(probe(h - 1, j));
-    }
-    for i in 0..h {
-        sens = sens.max(probe(i, 0)).max(probe(i, w - 1));
-    }
+    // The border, then every 8th pixel of every 8th row (in parallel: the
+    // maximum does not depend on the order).
+    let top_bottom = (0..w)
+        .into_par_iter()
+        .map(|j| probe(0, j).max(probe(h - 1, j)))
+        .reduce(|| 1.0, f64::max);
+    let sides = (0..h)
+        .into_par_iter()
+        .map(|i| probe(i, 0).max(probe(i, w - 1)))
+        .reduce(|| 1.0, f64::max);
+    let sens = top_bottom.max(sides);
     let grid = (0..h.div_ceil(8))
         .into_par_iter()
         .map(|r| {
@@ -961,19 +963,19 @@ impl<'b> Runs<'b> {
             return (0..n).collect();
         }
         let (w, h) = (self.w, self.h);
-        let mut seen = vec![false; n];
-        let mut mark = |i: usize, j: usize| {
-            let yu = self.y(i) * self.up;
-            let (d, _) = self.ray(yu, j);
-            seen[self.bins.of(d.x, d.y)] = true;
+        let bin = |i: usize, j: usize| {
+            let (d, _) = self.ray(self.y(i) * self.up, j);
+            self.bins.of(d.x, d.y)
         };
-        for j in 0..w {
-            mark(0, j);
-            mark(h - 1, j);
-        }
-        for i in 0..h {
-            mark(i, 0);
-            mark(i, w - 1);
+        // The border pixels' bins (in parallel: marks do not depend on the order).
+        let border: Vec<[usize; 2]> = (0..w)
+            .into_par_iter()
+            .map(|j| [bin(0, j), bin(h - 1, j)])
+            .chain((0..h).into_par_iter().map(|i| [bin(i, 0), bin(i, w - 1)]))
+            .collect();
+        let mut seen = vec![false; n];
+        for b in border.into_iter().flatten() {
+            seen[b] = true;
         }
         // The largest circular gap between marked bins lies outside.
         let marked: Vec<usize> = (0..n).filter(|&b| seen[b]).collect();
@@ -2576,21 +2578,24 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 (tau, pa.lerp(pb, tau))
             }
         };
-        let n_i = a.n.lerp(b.n, tau).normalize_or(a.n);
         // The pixel's ray is up to half a pixel off the bin's plane: it
         // meets the surface where it meets the tangent plane at p (to second
-        // order in that offset), unless it grazes that plane.
-        let dn = dir.dot(n_i);
+        // order in that offset), unless it grazes that plane (|cos| ≤ 0.15).
+        // The plane's normal m need not be unit for that: its
+        // normalisation stays off the seed's dependency chain.
+        let m = a.n.lerp(b.n, tau);
+        let dn = dir.dot(m);
         let mut lam0 = (p - e).dot(dir).max(0.0);
         let mut trusted = herm.is_some();
         if trusted {
-            let l = (p - e).dot(n_i) / dn;
-            if dn.abs() > 0.15 && l.is_finite() && l > 0.0 {
+            let l = (p - e).dot(m) / dn;
+            if dn * dn > 0.0225 * m.length_squared() && l.is_finite() && l > 0.0 {
                 lam0 = l;
             } else {
                 trusted = false;
             }
         }
+        let n_i = m.normalize_or(a.n);
         let q0 = e + lam0 * dir;
         let topo = sp.topo;
         let mut px = Pixel {
@@ -2689,39 +2694,115 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut ga = ga.filter(|g| g * outside > 0.0)?;
         let step = 0.5 * fp;
         let mut n = 0;
+        // The steps evaluated a few at a time, in one batch (the same values
+        // as one by one); those past the first crossing are wasted.
+        const AHEAD: usize = 8;
+        let (mut ls, mut us, mut vs, mut zs) =
+            ([0.0; AHEAD], [0.0; AHEAD], [0.0; AHEAD], [0.0; AHEAD]);
+        let mut hs = [HeightSample::default(); AHEAD];
+        let mut inside = [false; AHEAD];
         while la < hi && n < 10_000 {
-            n += 1;
-            // (the last step ends at hi: a crossing just before the domain's
-            // edge is not stepped over)
-            let lb = (la + step).min(hi);
-            let Some(gb) = h(self, lb) else {
-                la = lb;
-                continue;
-            };
-            if ga * gb <= 0.0 {
-                let (mut a, mut b) = (la, lb);
-                for _ in 0..60 {
-                    let m = 0.5 * (a + b);
-                    let gm = h(self, m)?;
-                    if gm * outside > 0.0 {
-                        a = m;
-                    } else {
-                        b = m;
-                    }
-                    if b - a < 1e-6 * fp {
-                        break;
-                    }
-                }
-                let l = 0.5 * (a + b);
-                let p = e + l * dir;
-                self.stats.refine_evals += 1;
-                let hs = ctx.field.eval(p.x, p.y);
-                return hs.is_finite().then_some((l, hs));
+            // The next steps from la: (the last step ends at hi: a crossing
+            // just before the domain's edge is not stepped over)
+            let mut m = 0;
+            let mut l = la;
+            while m < AHEAD && l < hi {
+                l = (l + step).min(hi);
+                ls[m] = l;
+                m += 1;
             }
-            la = lb;
-            ga = gb;
+            let mut k = 0;
+            for i in 0..m {
+                let p = e + ls[i] * dir;
+                inside[i] = dom.contains(p.x, p.y);
+                if inside[i] {
+                    (us[k], vs[k], zs[i]) = (p.x, p.y, p.z);
+                    k += 1;
+                }
+            }
+            if k > 0 {
+                ctx.field.eval_batch(&us[..k], &vs[..k], &mut hs[..k]);
+                self.stats.refine_evals += k as u64;
+            }
+            let mut at = 0;
+            for i in 0..m {
+                n += 1;
+                let lb = ls[i];
+                let gb = inside[i]
+                    .then(|| {
+                        at += 1;
+                        let h = &hs[at - 1];
+                        h.is_finite().then_some(zs[i] - h.f)
+                    })
+                    .flatten();
+                let Some(gb) = gb else {
+                    la = lb;
+                    continue;
+                };
+                if ga * gb <= 0.0 {
+                    return self.crossing(dir, (la, ga), (lb, gb), fp, outside);
+                }
+                la = lb;
+                ga = gb;
+            }
         }
         None
+    }
+
+    /// The crossing of the ray `dir` with the surface between distances a
+    /// (on the `outside` side: g·outside > 0 for g = w_ray − f) and b (not),
+    /// to 10⁻⁶ footprints: Newton on g inside the bracket, bisection where a
+    /// step would leave it; with the surface sample there.
+    fn crossing(
+        &mut self,
+        dir: DVec3,
+        (mut a, ga): (f64, f64),
+        (mut b, gb): (f64, f64),
+        fp: f64,
+        outside: f64,
+    ) -> Option<(f64, HeightSample)> {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let eval = |s: &mut Self, l: f64| -> Option<(f64, f64)> {
+            let p = e + l * dir;
+            s.stats.refine_evals += 1;
+            let hs = ctx.field.eval(p.x, p.y);
+            hs.is_finite()
+                .then_some((p.z - hs.f, dir.z - (hs.fu * dir.x + hs.fv * dir.y)))
+        };
+        // (the secant's point first: the bracket is half a footprint)
+        let d = ga - gb;
+        let mut x = if d != 0.0 && d.is_finite() {
+            (a + (b - a) * ga / d).clamp(a, b)
+        } else {
+            0.5 * (a + b)
+        };
+        for _ in 0..60 {
+            let (g, dg) = eval(self, x)?;
+            if g * outside > 0.0 {
+                a = x;
+            } else {
+                b = x;
+            }
+            let next = x - g / dg;
+            if next > a && next < b {
+                if (next - x).abs() < 1e-6 * fp {
+                    x = next;
+                    break;
+                }
+                x = next;
+            } else {
+                x = 0.5 * (a + b);
+            }
+            if b - a < 1e-6 * fp {
+                x = 0.5 * (a + b);
+                break;
+            }
+        }
+        let p = e + x * dir;
+        self.stats.refine_evals += 1;
+        let hs = ctx.field.eval(p.x, p.y);
+        hs.is_finite().then_some((x, hs))
     }
 }
 
