@@ -2638,7 +2638,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     }
 
     /// Fallback of the batched Newton ([`Self::solve`]): march the pixel's ray over [lo, hi]
-    /// in half-footprint steps and solve the first crossing by bisection.
+    /// in half-footprint steps and solve the first crossing ([`Self::crossing`]).
     /// The march starts where the ray is on the seen side (`side`) of the
     /// surface, stepping back if needed.
     fn march(
