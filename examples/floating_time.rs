@@ -1,7 +1,8 @@
 //! Timing harness for the floating column (no Python needed), on the bench
 //! surface 3 sin(u cos v) over [−5, 5]²:
 //! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
-//! with keys refine, step, max_step, outs (comma-separated buffers) (the options of `fcol.render`),
+//! with keys refine, step, max_step, tol (`refine_tol`), outs (comma-separated buffers) (the options
+//! of `fcol.render`),
 //! hash=1 to print a digest of the buffers (to compare outputs across builds),
 //! height_bound=0 to sweep without the height bound's early exit, el, az and dist to
 //! change the view's elevation, azimuth and (perspective) distance
