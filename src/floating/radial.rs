@@ -258,15 +258,15 @@ fn bin_count(cam: &crate::camera::Camera) -> usize {
     };
     // The border, then every 8th pixel of every 8th row (in parallel: the
     // maximum does not depend on the order).
-    let top_bottom = (0..w)
+    let sens = (0..w)
         .into_par_iter()
         .map(|j| probe(0, j).max(probe(h - 1, j)))
+        .chain(
+            (0..h)
+                .into_par_iter()
+                .map(|i| probe(i, 0).max(probe(i, w - 1))),
+        )
         .reduce(|| 1.0, f64::max);
-    let sides = (0..h)
-        .into_par_iter()
-        .map(|i| probe(i, 0).max(probe(i, w - 1)))
-        .reduce(|| 1.0, f64::max);
-    let sens = top_bottom.max(sides);
     let grid = (0..h.div_ceil(8))
         .into_par_iter()
         .map(|r| {
@@ -2589,7 +2589,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut trusted = herm.is_some();
         if trusted {
             let l = (p - e).dot(m) / dn;
-            if dn * dn > 0.0225 * m.length_squared() && l.is_finite() && l > 0.0 {
+            if dn * dn > 0.15 * 0.15 * m.length_squared() && l.is_finite() && l > 0.0 {
                 lam0 = l;
             } else {
                 trusted = false;
@@ -2714,9 +2714,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let mut k = 0;
             for i in 0..m {
                 let p = e + ls[i] * dir;
-                inside[i] = dom.contains(p.x, p.y);
+                (inside[i], zs[i]) = (dom.contains(p.x, p.y), p.z);
                 if inside[i] {
-                    (us[k], vs[k], zs[i]) = (p.x, p.y, p.z);
+                    (us[k], vs[k]) = (p.x, p.y);
                     k += 1;
                 }
             }
@@ -2728,13 +2728,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             for i in 0..m {
                 n += 1;
                 let lb = ls[i];
-                let gb = inside[i]
-                    .then(|| {
-                        at += 1;
-                        let h = &hs[at - 1];
-                        h.is_finite().then_some(zs[i] - h.f)
-                    })
-                    .flatten();
+                // (the batch holds the steps inside the domain, in order)
+                let gb = if inside[i] {
+                    at += 1;
+                    let h = &hs[at - 1];
+                    h.is_finite().then_some(zs[i] - h.f)
+                } else {
+                    None
+                };
                 let Some(gb) = gb else {
                     la = lb;
                     continue;
