@@ -1,7 +1,7 @@
 //! Timing harness for the floating column (no Python needed), on the bench
 //! surface 3 sin(u cos v) over [−5, 5]²:
 //! `cargo run --release --example floating_time -- <ortho|persp> [width height repeat] [key=value ...]`
-//! with keys refine, step, max_step, tol (`refine_tol`), outs (comma-separated buffers) (the options
+//! with keys refine, step, max_step, bin_width, tol (`refine_tol`), outs (comma-separated buffers) (the options
 //! of `fcol.render`),
 //! hash=1 to print a digest of the buffers (to compare outputs across builds),
 //! height_bound=0 to sweep without the height bound's early exit, el, az and dist to
@@ -39,6 +39,7 @@ fn main() {
             "refine" => o.refine = v == "1" || v == "true",
             "step" => o.step = Some(v.parse().unwrap()),
             "max_step" => o.max_step = Some(v.parse().unwrap()),
+            "bin_width" => o.bin_width = Some(v.parse().unwrap()),
             "outs" => names = v.split(',').map(str::to_string).collect(),
             "hash" => want_hash = v == "1" || v == "true",
             "stats" => want_stats = v == "1" || v == "true",

@@ -180,6 +180,9 @@ def test_bad_input():
         fcol.render(s, view, 0, 10)
     with pytest.raises(TypeError, match="refine"):
         fcol.render(s, view, 10, 10, refine="yes")
+    for bad in (0.0, -1.0, float("nan"), 4.5):
+        with pytest.raises(ValueError, match="bin_width"):
+            fcol.render(s, view, 10, 10, bin_width=bad)
 
 
 @pytest.mark.parametrize("case", [0, 2])

@@ -16,10 +16,13 @@
 //! back, covered elevations instead of rows: the pseudo-angle tan(θ/2) of
 //! θ = atan2(w − E_w, ρ), monotone in θ and free of transcendental calls) is
 //! exact. Pixels are grouped by the azimuth φ of their ray into bins narrow
-//! enough that a pixel lies within half a pixel of its bin's plane; each pixel
-//! takes its span from its bin's sweep (by its own θ) and, with `refine`, is
-//! solved on its own ray. A bin is the wedge of the screen between two lines
-//! through that vanishing point, one run of pixels per row: each task takes
+//! enough that a pixel lies within half a pixel of its bin's plane (0.625 px
+//! with `refine`, see [`super::FloatingOptions::bin_width`]); each pixel takes its
+//! span from its bin's sweep (by its own θ) and, with `refine`, is solved on
+//! its own ray; unrevealed pixels on the mask's edge are searched on their
+//! own rays from their neighbours' hits ([`grow_edges`]). A bin is the
+//! wedge of the screen between two lines through that vanishing point, one
+//! run of pixels per row: each task takes
 //! a few neighbouring bins, generates their rays row by row from those runs
 //! and sweeps them (no binning of the whole image, no scatter of its pixels),
 //! a few bins side by side so that their samples are evaluated in one batch.
@@ -87,7 +90,7 @@ fn render_radial_with(
 ) -> Result<(PixelLists, ColumnStats)> {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
-    let nb = bin_count(cam);
+    let nb = bin_count(cam, ctx.opts.bin_width(ctx.refine));
     let bins = Bins::new(nb);
     // Each bin generates its own rays, row by row (see [`Runs`]): no
     // binning of the whole image, no scatter into bins. Its rays' order is
@@ -214,6 +217,7 @@ fn render_radial_with(
         ctx, off, &missed, &mut set, &mut depth, &mut holes, &mut stats,
     );
     fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
+    grow_edges(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
     if let Some(out) = direct {
         for (k, p) in &holes {
             // SAFETY: the bins are done; this thread alone writes. A filled
@@ -233,9 +237,9 @@ fn render_radial_with(
     Ok((all, stats))
 }
 
-/// The number of azimuth bins of a perspective view: bins at most a pixel
-/// wide laterally at the most sensitive pixel.
-fn bin_count(cam: &crate::camera::Camera) -> usize {
+/// The number of azimuth bins of a perspective view: bins at most `width`
+/// pixels wide laterally at the most sensitive pixel.
+fn bin_count(cam: &crate::camera::Camera, width: f64) -> usize {
     use std::f64::consts::PI;
     let (w, h) = (cam.width, cam.height);
     let e = cam.eye;
@@ -277,8 +281,8 @@ fn bin_count(cam: &crate::camera::Camera) -> usize {
         })
         .reduce(|| 1.0, f64::max);
     let sens = sens.max(grid);
-    // Bins of width ≤ 1 px laterally at the most sensitive pixel.
-    ((2.0 * PI * sens).ceil() as usize).clamp(1, 1 << 24)
+    // Bins of width ≤ `width` px laterally at the most sensitive pixel.
+    ((2.0 * PI * sens / width).ceil() as usize).clamp(1, 1 << 24)
 }
 
 /// Bins [g0, g1) of [`render_radial`] without coverage, their results onto
@@ -574,7 +578,7 @@ impl PxRate {
     }
 }
 
-/// A pixel lies up to half a pixel off its bin's plane; on steep surfaces
+/// A pixel lies up to half a bin off its bin's plane; on steep surfaces
 /// that plane can pass through a notch (next to a crest) that the pixel's
 /// own ray does not. Unrevealed pixels between two revealed neighbours
 /// (above and below, or left and right, next to it or, across a gap of two
@@ -684,6 +688,199 @@ fn fill_holes(
     stats.refine_evals += sw.stats.refine_evals;
 }
 
+/// Rounds of [`grow_edges`]: the mask's edge grows by up to this many
+/// pixels.
+const GROW_ROUNDS: usize = 2;
+
+/// Unrevealed pixels next to revealed ones, on the mask's edge: a pixel
+/// lies up to a pixel off its bin's plane, so a silhouette in that plane (a
+/// crest, or the domain's edge where it runs nearly along the plane) can lie
+/// a pixel or two from the pixel's own. Each is solved on its own ray by
+/// Newton from its set 4-neighbours' hits (nearest first; bracket ± 8
+/// footprints): a converged root is a true crossing of the ray, and the
+/// first one, as its neighbour's is 1 pixel away; one on the under side is
+/// replaced by the ray's entry up to 16 footprints before it, if any. In
+/// [`GROW_ROUNDS`] rounds, each over the pixels the last one set; the
+/// pixels are solved in parallel, in fixed chunks (the same for any thread
+/// count).
+fn grow_edges(
+    ctx: &Ctx<'_>,
+    off: (f64, f64),
+    set: &mut [bool],
+    depth: &mut [f64],
+    px: &mut Vec<(usize, Pixel)>,
+    stats: &mut ColumnStats,
+) {
+    let cam = ctx.cam;
+    let (w, h) = (cam.width, cam.height);
+    // A candidate: unset, with a set 4-neighbour, not tried before (sorted).
+    let mut tried: Vec<usize> = Vec::new();
+    let mut grown: Vec<usize> = Vec::new();
+    let cand = |set: &[bool], depth: &[f64], k: usize| -> Option<(usize, DVec3, [f64; 4])> {
+        let (i, j) = (k / w, k % w);
+        if set[k] {
+            return None;
+        }
+        let nb = [
+            (i > 0).then(|| k - w),
+            (i + 1 < h).then(|| k + w),
+            (j > 0).then(|| k - 1),
+            (j + 1 < w).then(|| k + 1),
+        ];
+        if !nb.iter().flatten().any(|&n| set[n]) {
+            return None;
+        }
+        let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+        let dd = dir.dot(cam.d);
+        if dd.is_nan() || dd <= 0.0 {
+            return None;
+        }
+        let mut lams = [f64::NAN; 4];
+        for (m, n) in nb.into_iter().enumerate() {
+            if let Some(n) = n.filter(|&n| set[n] && depth[n].is_finite()) {
+                lams[m] = depth[n] / dd;
+            }
+        }
+        lams.sort_by(f64::total_cmp);
+        // One seed per sheet: the nearest of those within 16 footprints of
+        // each other.
+        let mut seeds = [f64::NAN; 4];
+        let mut m = 0;
+        for &l in lams.iter().filter(|l| l.is_finite()) {
+            let fp = l.max(cam.near) / cam.focal;
+            if m == 0 || l - seeds[m - 1] > 16.0 * fp {
+                seeds[m] = l;
+                m += 1;
+            }
+        }
+        Some((k, dir, seeds))
+    };
+    for round in 0..GROW_ROUNDS {
+        let cands: Vec<(usize, DVec3, [f64; 4])> = if round == 0 {
+            // The whole image, row by row, eight pixels at a time: those
+            // with no candidate skipped in one test.
+            let (set, depth) = (&*set, &*depth);
+            (0..h)
+                .into_par_iter()
+                .flat_map_iter(|i| {
+                    let row = i * w;
+                    let mut ks = Vec::new();
+                    let mut j = 0;
+                    while j < w {
+                        if j >= 1 && j + 9 <= w {
+                            let here = bytes8(set, row + j);
+                            let mut nb = bytes8(set, row + j - 1) | bytes8(set, row + j + 1);
+                            if i > 0 {
+                                nb |= bytes8(set, row - w + j);
+                            }
+                            if i + 1 < h {
+                                nb |= bytes8(set, row + w + j);
+                            }
+                            if (!here & 0x0101_0101_0101_0101) & nb == 0 {
+                                j += 8;
+                                continue;
+                            }
+                        }
+                        ks.push(row + j);
+                        j += 1;
+                    }
+                    ks.into_iter().filter_map(|k| cand(set, depth, k))
+                })
+                .collect()
+        } else {
+            // Around the pixels the last round set.
+            let mut ks: Vec<usize> = grown
+                .iter()
+                .flat_map(|&k| {
+                    let (i, j) = (k / w, k % w);
+                    [
+                        (i > 0).then(|| k - w),
+                        (i + 1 < h).then(|| k + w),
+                        (j > 0).then(|| k - 1),
+                        (j + 1 < w).then(|| k + 1),
+                    ]
+                })
+                .flatten()
+                .collect();
+            ks.sort_unstable();
+            ks.dedup();
+            ks.into_iter()
+                .filter(|k| tried.binary_search(k).is_err())
+                .filter_map(|k| cand(set, depth, k))
+                .collect()
+        };
+        if cands.is_empty() {
+            return;
+        }
+        const CHUNK: usize = 256;
+        let found: Vec<(Vec<(usize, Pixel)>, u64)> = cands
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut sw = RadialSweep::new(ctx, 0.0, &[]);
+                let mut sc = super::refine::NewtonScratch::default();
+                let mut out = Vec::new();
+                let mut evals = 0;
+                // The chunk's pixels by their m-th seed, batched: those whose
+                // seed m − 1 did not settle.
+                let mut todo: Vec<u32> = (0..chunk.len() as u32).collect();
+                let mut hits: Vec<Option<(f64, HeightSample)>> = vec![None; chunk.len()];
+                for m in 0..4 {
+                    todo.retain(|&c| chunk[c as usize].2[m].is_finite());
+                    if todo.is_empty() {
+                        break;
+                    }
+                    let seed = |q: usize| chunk[todo[q] as usize].2[m];
+                    let fp = |l: f64| l.max(cam.near) / cam.focal;
+                    evals += super::refine::newton(
+                        ctx,
+                        todo.len(),
+                        seed,
+                        |q| (cam.eye, chunk[todo[q] as usize].1),
+                        |q| {
+                            let l = seed(q);
+                            (l - 8.0 * fp(l), l + 8.0 * fp(l), fp(l))
+                        },
+                        &mut sc,
+                        |q, l, _, hs| hits[todo[q] as usize] = Some((l, *hs)),
+                    );
+                    todo.retain(|&c| hits[c as usize].is_none());
+                }
+                for (c, hit) in hits.into_iter().enumerate() {
+                    let Some((mut l, mut hs)) = hit else {
+                        continue;
+                    };
+                    let (k, dir, _) = chunk[c];
+                    if hs.normal().dot(dir) > 0.0 {
+                        // The under side: the entry before it, if any.
+                        let fp = l.max(cam.near) / cam.focal;
+                        if let Some(x) = sw.march(dir, l - 16.0 * fp, l - 1e-3 * fp, fp, 1) {
+                            (l, hs) = x;
+                        }
+                    }
+                    out.push((k, hit_pixel(ctx, dir, cam.eye + l * dir, &hs)));
+                }
+                (out, evals + sw.stats.refine_evals)
+            })
+            .collect();
+        tried.extend(cands.iter().map(|c| c.0));
+        tried.sort_unstable();
+        grown.clear();
+        for (list, evals) in found {
+            stats.refine_evals += evals;
+            for (k, p) in list {
+                set[k] = true;
+                depth[k] = p.depth;
+                px.push((k, p));
+                stats.holes_filled += 1;
+                grown.push(k);
+            }
+        }
+        if grown.is_empty() {
+            return;
+        }
+    }
+}
+
 /// The rays of one bin, generated by the bin itself, row by row.
 ///
 /// A pixel (row y, column x on the screen, centred) lies in bin b when its
@@ -763,7 +960,7 @@ impl<'b> Runs<'b> {
 
     /// The pseudo-elevations (see [`elevation`]) that the vertical plane of
     /// azimuth φ reaches on the image, widened by two pixels on every side
-    /// (the pixels of a bin, at most about a pixel wide, lie within them):
+    /// (the pixels of a bin, at most a few pixels wide, lie within them):
     /// its screen line L = 0 (see [`Runs`]) clipped to that rectangle, on the
     /// side where the plane's rays point along φ, and the vanishing point of
     /// the verticals (θ = ±π/2) when it lies inside. None: the plane misses
@@ -821,7 +1018,7 @@ impl<'b> Runs<'b> {
     /// [`Self::wedge`]) may have pixels with pseudo-elevation in
     /// [`bottom`, `top`] = `within` (None: no such pixel). Along the bin's
     /// screen line the elevation is monotone, and its pixels lie within
-    /// about half a pixel of that line: the rows where the line reaches
+    /// half a bin (about half a pixel) of that line: the rows where the line reaches
     /// `bottom` and `top`, three rows further for safety, bound them.
     fn rows_within(
         &self,
@@ -2315,7 +2512,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// The batched exact solve of the bin's pixels (Newton on the pixel's
     /// ray, [`super::refine::newton`], all from the eye), with a march
     /// along the ray for those Newton could not settle (the pixel's ray is
-    /// up to half a pixel off the bin's plane, so its seed can be poor at
+    /// up to half a bin off the bin's plane, so its seed can be poor at
     /// grazing).
     #[inline(never)]
     fn solve(&mut self) {
@@ -2578,7 +2775,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 (tau, pa.lerp(pb, tau))
             }
         };
-        // The pixel's ray is up to half a pixel off the bin's plane: it
+        // The pixel's ray is up to half a bin off the bin's plane: it
         // meets the surface where it meets the tangent plane at p (to second
         // order in that offset), unless it grazes that plane (|cos| ≤ 0.15).
         // The plane's normal m need not be unit for that: its
@@ -3017,7 +3214,7 @@ mod tests {
                     runs.group_rays(g0, g1, None, &mut gs);
                     for b in g0..g1 {
                         let rays = &gs.lists[b - g0];
-                        if !rays.is_empty() && nb >= bin_count(&cam) {
+                        if !rays.is_empty() && nb >= bin_count(&cam, 1.25) {
                             wedges_checked += 1;
                             // The bin's wedge holds its rays' elevations.
                             let phi = bins.centre(b);
@@ -3027,7 +3224,7 @@ mod tests {
                                 assert!(r.theta >= lo && r.theta <= hi, "view ({el}, {az}) nb {nb} bin {b} ray {} theta {} wedge {lo} {hi}", r.k, r.theta);
                             }
                         }
-                        if !rays.is_empty() && nb >= bin_count(&cam) && !runs.exact_only {
+                        if !rays.is_empty() && nb >= bin_count(&cam, 1.25) && !runs.exact_only {
                             // Generated between two elevations (up to half
                             // its rays; its middle half): every ray of the
                             // bin between them is among them.

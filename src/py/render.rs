@@ -95,6 +95,9 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
     if let Some(v) = o.take("height_bound")? {
         f.height_bound = v;
     }
+    if let Some(v) = o.take("bin_width")? {
+        f.bin_width = Some(v);
+    }
     Ok(f)
 }
 
@@ -145,6 +148,11 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   that is not already covered — a landscape seen from a low eye stops
 ///   at the first ridge that hides the rest. The picture is identical
 ///   either way (`False` sweeps every plane to the domain's end);
+/// * `bin_width` (perspective; 1.25 with `refine`, else 1.0, and 1.0 with
+///   `coverage`): the widest azimuth bin, in pixels across at the most
+///   sensitive pixel — each bin sweeps one vertical plane through the eye
+///   and its pixels lie up to half of this off it (their exact solve and
+///   the search along the mask's edge absorb that offset); in (0, 4];
 /// * `texture` (floating_column): an (H, W) array over the surface's
 ///   domain, laid out like a height grid's z, multiplying each pixel's
 ///   intensity and rgb at the pixel's (u, v) (see [`texture_from_py`]);
