@@ -231,23 +231,34 @@ def test_coverage_bad_input():
         fcol.render(surface("bump"), ORTHO[0][1], W, H, coverage="yes")
 
 
-# Pixels the exact hit sees that the default render leaves unset, and the
-# reverse, at (48 × 40, 160 × 120). Measured: (11, 10), (0, 1), (3, 9)
-# missing, none extra; before the search along the mask's edge (bins a
-# pixel wide) 16 missing at 48 × 40 on the first view.
-EDGE_CASES = [(PERSP, (11, 10)), (PERSP_COV[0], (0, 1)), (PERSP_COV[1], (3, 9))]
+# Pixels the exact hit sees that the default render leaves unset, and
+# pixels both see where the render shows a farther sheet than the first hit
+# (a crest in front that the bin's plane passes over), at 48 × 40 and
+# 160 × 120. Measured: missing (11, 10), (0, 1), (3, 9); farther (9, 15),
+# (0, 0), (5, 2). Without the searches on the mask's edge (bins a pixel
+# wide) 16 were missing at 48 × 40 on the first view; without the search for
+# nearer sheets, farther (24, 54), (0, 1), (28, 46).
+EDGE_CASES = [
+    (PERSP, ((11, 9), (10, 15))),
+    (PERSP_COV[0], ((0, 0), (1, 0))),
+    (PERSP_COV[1], ((3, 5), (9, 2))),
+]
 
 
 @pytest.mark.parametrize("case,measured", EDGE_CASES, ids=["sinuv-24", "bump", "sinuv-20"])
-def test_perspective_mask_edge_against_exact_hit(case, measured):
+def test_perspective_edges_against_exact_hit(case, measured):
     name, view = case
     f, g, dom = SURFACES[name]
-    for (w, h), most in zip(((W, H), (160, 120)), measured):
+    for (w, h), (missing, farther) in zip(((W, H), (160, 120)), measured):
         ref = height_reference(f, g, dom, view, w, h)
-        img = fcol.render(surface(name), view, w, h, outputs=("rgb", "mask"))
+        img = fcol.render(surface(name), view, w, h, outputs=("rgb", "mask", "depth"))
         rm, m = np.asarray(ref.mask, bool), img.mask.astype(bool)
+        both = rm & m
+        rd, d = np.asarray(ref.depth), img.depth
         # A solved pixel is a crossing of its own ray: never one the exact
-        # hit does not see. (+2: a silhouette pixel or two may move with
-        # the platform's rounding)
+        # hit does not see, never nearer than its first hit. (+2: a
+        # silhouette pixel or two may move with the platform's rounding)
         assert (m & ~rm).sum() == 0, (w, h)
-        assert (rm & ~m).sum() <= most + 2, (w, h, (rm & ~m).sum())
+        assert (both & (d < rd * (1 - 1e-3))).sum() == 0, (w, h)
+        assert (rm & ~m).sum() <= missing + 2, (w, h, (rm & ~m).sum())
+        assert (both & (d > rd * (1 + 1e-3))).sum() <= farther + 2, (w, h)

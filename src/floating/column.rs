@@ -46,6 +46,8 @@ pub struct ColumnStats {
     pub problems: u64,
     pub early_exit: u64,
     pub holes_filled: u64,
+    /// Perspective: pixels moved to a nearer sheet their ray meets first.
+    pub nearer: u64,
 }
 
 impl ColumnStats {
@@ -58,6 +60,7 @@ impl ColumnStats {
         self.problems += o.problems;
         self.early_exit += o.early_exit;
         self.holes_filled += o.holes_filled;
+        self.nearer += o.nearer;
     }
 }
 

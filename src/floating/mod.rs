@@ -329,6 +329,7 @@ pub fn render_floating_column(
     buf.stat("problems", total.problems as f64);
     buf.stat("early_exits", total.early_exit as f64);
     buf.stat("holes_filled", total.holes_filled as f64);
+    buf.stat("nearer_sheets", total.nearer as f64);
     Ok(buf)
 }
 

@@ -20,7 +20,7 @@
 //! with `refine`, see [`super::FloatingOptions::bin_width`]); each pixel takes its
 //! span from its bin's sweep (by its own θ) and, with `refine`, is solved on
 //! its own ray; unrevealed pixels on the mask's edge are searched on their
-//! own rays from their neighbours' hits ([`grow_edges`]). A bin is the
+//! own rays from their neighbours' hits ([`edge_searches`]). A bin is the
 //! wedge of the screen between two lines through that vanishing point, one
 //! run of pixels per row: each task takes
 //! a few neighbouring bins, generates their rays row by row from those runs
@@ -217,7 +217,18 @@ fn render_radial_with(
         ctx, off, &missed, &mut set, &mut depth, &mut holes, &mut stats,
     );
     fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
-    grow_edges(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
+    let moved = edge_searches(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
+    if !moved.is_empty() && direct.is_none() {
+        // (each pixel listed once: its first entry gives way)
+        let mut gone = ScratchArray::<bool>::zeroed(n);
+        for &(k, _) in &moved {
+            gone[k] = true;
+        }
+        for list in all.iter_mut().chain(std::iter::once(&mut holes)) {
+            list.retain(|(k, _)| !gone[*k]);
+        }
+    }
+    holes.extend(moved);
     if let Some(out) = direct {
         for (k, p) in &holes {
             // SAFETY: the bins are done; this thread alone writes. A filled
@@ -688,46 +699,128 @@ fn fill_holes(
     stats.refine_evals += sw.stats.refine_evals;
 }
 
-/// Rounds of [`grow_edges`]: the mask's edge grows by up to this many
-/// pixels.
+/// A pixel to search on its own ray (see [`solve_from_seeds`]): its index,
+/// its ray, seeds along it (nearest first, NaN for none) and the distance
+/// its crossing must lie before.
+type SeedSearch = (usize, DVec3, [f64; 4], f64);
+
+/// The searches of [`edge_searches`]: each pixel's ray
+/// solved by Newton from its seeds in turn (bracket ± 8 footprints, and
+/// short of its limit); a converged root is a true crossing of the ray. One
+/// on the under side is replaced by the ray's entry up to 16 footprints
+/// before it, if any. Batched by seed, in fixed chunks solved in parallel
+/// (the same for any thread count); the pixels found and the evaluations.
+fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pixel)>, u64)> {
+    let cam = ctx.cam;
+    const CHUNK: usize = 256;
+    cands
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut sw = RadialSweep::new(ctx, 0.0, &[]);
+            let mut sc = super::refine::NewtonScratch::default();
+            let mut out = Vec::new();
+            let mut evals = 0;
+            let fp = |l: f64| l.max(cam.near) / cam.focal;
+            // The chunk's pixels by their m-th seed, batched: those whose
+            // seed m − 1 did not settle.
+            let mut todo: Vec<u32> = (0..chunk.len() as u32).collect();
+            let mut hits: Vec<Option<(f64, HeightSample)>> = vec![None; chunk.len()];
+            for m in 0..4 {
+                todo.retain(|&c| chunk[c as usize].2[m].is_finite());
+                if todo.is_empty() {
+                    break;
+                }
+                let seed = |q: usize| chunk[todo[q] as usize].2[m];
+                evals += super::refine::newton(
+                    ctx,
+                    todo.len(),
+                    seed,
+                    |q| (cam.eye, chunk[todo[q] as usize].1),
+                    |q| {
+                        let (l, limit) = (seed(q), chunk[todo[q] as usize].3);
+                        (l - 8.0 * fp(l), (l + 8.0 * fp(l)).min(limit), fp(l))
+                    },
+                    &mut sc,
+                    |q, l, _, hs| hits[todo[q] as usize] = Some((l, *hs)),
+                );
+                todo.retain(|&c| hits[c as usize].is_none());
+            }
+            for (c, hit) in hits.into_iter().enumerate() {
+                let Some((mut l, mut hs)) = hit else {
+                    continue;
+                };
+                let (k, dir, _, _) = chunk[c];
+                if hs.normal().dot(dir) > 0.0 {
+                    // The under side: the entry before it, if any.
+                    let f = fp(l);
+                    if let Some(x) = sw.march(dir, l - 16.0 * f, l - 1e-3 * f, f, 1) {
+                        (l, hs) = x;
+                    }
+                }
+                out.push((k, hit_pixel(ctx, dir, cam.eye + l * dir, &hs)));
+            }
+            (out, evals + sw.stats.refine_evals)
+        })
+        .collect()
+}
+
+/// Rounds of [`edge_searches`] on the mask's edge: it grows by up to this
+/// many pixels.
 const GROW_ROUNDS: usize = 2;
 
-/// Unrevealed pixels next to revealed ones, on the mask's edge: a pixel
-/// lies up to a pixel off its bin's plane, so a silhouette in that plane (a
-/// crest, or the domain's edge where it runs nearly along the plane) can lie
-/// a pixel or two from the pixel's own. Each is solved on its own ray by
-/// Newton from its set 4-neighbours' hits (nearest first; bracket ± 8
-/// footprints): a converged root is a true crossing of the ray, and the
-/// first one, as its neighbour's is 1 pixel away; one on the under side is
-/// replaced by the ray's entry up to 16 footprints before it, if any. In
-/// [`GROW_ROUNDS`] rounds, each over the pixels the last one set; the
-/// pixels are solved in parallel, in fixed chunks (the same for any thread
-/// count).
-fn grow_edges(
+/// The searches on the pixels' own rays after the bins, where a pixel up to
+/// half a bin off its bin's plane may see what the plane does not:
+/// - unset pixels next to set ones, on the mask's edge (a silhouette in the
+///   plane, a crest or the domain's edge where it runs nearly along the
+///   plane, can lie a pixel or two from the pixel's own): solved from their
+///   set 4-neighbours' hits, in [`GROW_ROUNDS`] rounds, each over the
+///   neighbours of the pixels the last one set;
+/// - set pixels beside a nearer set 4-neighbour (a depth step of more than
+///   four footprints: a crest in front that the plane passes over can still
+///   cross the pixel's ray): searched from the nearer neighbours' hits,
+///   short of their own, and moved to a crossing found there.
+///
+/// A converged root is a true crossing of the ray, and its first, as the
+/// neighbour's whose sheet it is lies a pixel away ([`solve_from_seeds`]).
+/// The first round's two kinds are found in one pass over the image and
+/// solved together. Returns the moved pixels (their depths updated); the
+/// pixels set are added to `px`.
+fn edge_searches(
     ctx: &Ctx<'_>,
     off: (f64, f64),
     set: &mut [bool],
     depth: &mut [f64],
     px: &mut Vec<(usize, Pixel)>,
     stats: &mut ColumnStats,
-) {
+) -> Vec<(usize, Pixel)> {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
-    // A candidate: unset, with a set 4-neighbour, not tried before (sorted).
-    let mut tried: Vec<usize> = Vec::new();
-    let mut grown: Vec<usize> = Vec::new();
-    let cand = |set: &[bool], depth: &[f64], k: usize| -> Option<(usize, DVec3, [f64; 4])> {
+    let inv_f = 1.0 / cam.focal;
+    let fp = |l: f64| l.max(cam.near) * inv_f;
+    // Pixel k's search, if it is one: unset with a set neighbour, or set
+    // with a nearer one. (a depth is read only where its pixel is set)
+    let search = |set: &[bool], depth: &[f64], k: usize| -> Option<SeedSearch> {
         let (i, j) = (k / w, k % w);
-        if set[k] {
-            return None;
-        }
         let nb = [
             (i > 0).then(|| k - w),
             (i + 1 < h).then(|| k + w),
             (j > 0).then(|| k - 1),
             (j + 1 < w).then(|| k + 1),
         ];
-        if !nb.iter().flatten().any(|&n| set[n]) {
+        let (is_set, lim) = if set[k] {
+            (true, depth[k] - 4.0 * fp(depth[k]))
+        } else {
+            (false, f64::INFINITY)
+        };
+        let mut zs = [f64::NAN; 4];
+        let mut any = false;
+        for (m, n) in nb.into_iter().enumerate() {
+            if let Some(n) = n.filter(|&n| set[n] && depth[n] < lim) {
+                zs[m] = depth[n];
+                any = true;
+            }
+        }
+        if !any {
             return None;
         }
         let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
@@ -735,38 +828,42 @@ fn grow_edges(
         if dd.is_nan() || dd <= 0.0 {
             return None;
         }
-        let mut lams = [f64::NAN; 4];
-        for (m, n) in nb.into_iter().enumerate() {
-            if let Some(n) = n.filter(|&n| set[n] && depth[n].is_finite()) {
-                lams[m] = depth[n] / dd;
-            }
-        }
-        lams.sort_by(f64::total_cmp);
+        zs.sort_by(f64::total_cmp);
         // One seed per sheet: the nearest of those within 16 footprints of
         // each other.
         let mut seeds = [f64::NAN; 4];
-        let mut m = 0;
-        for &l in lams.iter().filter(|l| l.is_finite()) {
-            let fp = l.max(cam.near) / cam.focal;
-            if m == 0 || l - seeds[m - 1] > 16.0 * fp {
-                seeds[m] = l;
-                m += 1;
+        let mut c = 0;
+        for &z in zs.iter().filter(|z| z.is_finite()) {
+            let l = z / dd;
+            if c == 0 || l - seeds[c - 1] > 16.0 * fp(l) {
+                seeds[c] = l;
+                c += 1;
             }
         }
-        Some((k, dir, seeds))
+        let limit = if is_set {
+            let l = depth[k] / dd;
+            l - 2.0 * fp(l)
+        } else {
+            f64::INFINITY
+        };
+        Some((k, dir, seeds, limit))
     };
+    let mut moved = Vec::new();
+    let mut tried: Vec<usize> = Vec::new();
+    let mut grown: Vec<usize> = Vec::new();
     for round in 0..GROW_ROUNDS {
-        let cands: Vec<(usize, DVec3, [f64; 4])> = if round == 0 {
-            // The whole image, row by row, eight pixels at a time: those
-            // with no candidate skipped in one test.
+        let cands: Vec<SeedSearch> = if round == 0 {
+            // The whole image, row by row, eight pixels at a time: eight
+            // unset pixels without a set neighbour skipped in one test.
             let (set, depth) = (&*set, &*depth);
             (0..h)
-                .into_par_iter()
-                .flat_map_iter(|i| {
+                .flat_map(|i| {
                     let row = i * w;
-                    let mut ks = Vec::new();
+                    let mut found = Vec::new();
                     let mut j = 0;
                     while j < w {
+                        // (a window of eight, or one pixel near the ends)
+                        let mut end = j + 1;
                         if j >= 1 && j + 9 <= w {
                             let here = bytes8(set, row + j);
                             let mut nb = bytes8(set, row + j - 1) | bytes8(set, row + j + 1);
@@ -776,15 +873,38 @@ fn grow_edges(
                             if i + 1 < h {
                                 nb |= bytes8(set, row + w + j);
                             }
-                            if (!here & 0x0101_0101_0101_0101) & nb == 0 {
+                            if here == 0 && nb == 0 {
                                 j += 8;
                                 continue;
                             }
+                            end = j + 8;
                         }
-                        ks.push(row + j);
-                        j += 1;
+                        for j in j..end {
+                            let k = row + j;
+                            // (inside the image: a branch-free test of the
+                            // four neighbours first, garbage depths masked by
+                            // their flags; the search itself is rarely wanted)
+                            let inner = i > 0 && i + 1 < h && j > 0 && j + 1 < w;
+                            let wanted = !inner || {
+                                let (l, r, u, d) = (k - 1, k + 1, k - w, k + w);
+                                if set[k] {
+                                    let dk = depth[k];
+                                    let lim = dk - 4.0 * fp(dk);
+                                    (set[l] & (depth[l] < lim))
+                                        | (set[r] & (depth[r] < lim))
+                                        | (set[u] & (depth[u] < lim))
+                                        | (set[d] & (depth[d] < lim))
+                                } else {
+                                    set[l] | set[r] | set[u] | set[d]
+                                }
+                            };
+                            if wanted {
+                                found.extend(search(set, depth, k));
+                            }
+                        }
+                        j = end;
                     }
-                    ks.into_iter().filter_map(|k| cand(set, depth, k))
+                    found
                 })
                 .collect()
         } else {
@@ -801,84 +921,43 @@ fn grow_edges(
                     ]
                 })
                 .flatten()
+                .filter(|&k| !set[k])
                 .collect();
             ks.sort_unstable();
             ks.dedup();
             ks.into_iter()
                 .filter(|k| tried.binary_search(k).is_err())
-                .filter_map(|k| cand(set, depth, k))
+                .filter_map(|k| search(set, depth, k))
                 .collect()
         };
         if cands.is_empty() {
-            return;
+            break;
         }
-        const CHUNK: usize = 256;
-        let found: Vec<(Vec<(usize, Pixel)>, u64)> = cands
-            .par_chunks(CHUNK)
-            .map(|chunk| {
-                let mut sw = RadialSweep::new(ctx, 0.0, &[]);
-                let mut sc = super::refine::NewtonScratch::default();
-                let mut out = Vec::new();
-                let mut evals = 0;
-                // The chunk's pixels by their m-th seed, batched: those whose
-                // seed m − 1 did not settle.
-                let mut todo: Vec<u32> = (0..chunk.len() as u32).collect();
-                let mut hits: Vec<Option<(f64, HeightSample)>> = vec![None; chunk.len()];
-                for m in 0..4 {
-                    todo.retain(|&c| chunk[c as usize].2[m].is_finite());
-                    if todo.is_empty() {
-                        break;
-                    }
-                    let seed = |q: usize| chunk[todo[q] as usize].2[m];
-                    let fp = |l: f64| l.max(cam.near) / cam.focal;
-                    evals += super::refine::newton(
-                        ctx,
-                        todo.len(),
-                        seed,
-                        |q| (cam.eye, chunk[todo[q] as usize].1),
-                        |q| {
-                            let l = seed(q);
-                            (l - 8.0 * fp(l), l + 8.0 * fp(l), fp(l))
-                        },
-                        &mut sc,
-                        |q, l, _, hs| hits[todo[q] as usize] = Some((l, *hs)),
-                    );
-                    todo.retain(|&c| hits[c as usize].is_none());
-                }
-                for (c, hit) in hits.into_iter().enumerate() {
-                    let Some((mut l, mut hs)) = hit else {
-                        continue;
-                    };
-                    let (k, dir, _) = chunk[c];
-                    if hs.normal().dot(dir) > 0.0 {
-                        // The under side: the entry before it, if any.
-                        let fp = l.max(cam.near) / cam.focal;
-                        if let Some(x) = sw.march(dir, l - 16.0 * fp, l - 1e-3 * fp, fp, 1) {
-                            (l, hs) = x;
-                        }
-                    }
-                    out.push((k, hit_pixel(ctx, dir, cam.eye + l * dir, &hs)));
-                }
-                (out, evals + sw.stats.refine_evals)
-            })
-            .collect();
-        tried.extend(cands.iter().map(|c| c.0));
+        let found = solve_from_seeds(ctx, &cands);
+
+        tried.extend(cands.iter().filter(|c| c.3 == f64::INFINITY).map(|c| c.0));
         tried.sort_unstable();
         grown.clear();
         for (list, evals) in found {
             stats.refine_evals += evals;
             for (k, p) in list {
-                set[k] = true;
                 depth[k] = p.depth;
-                px.push((k, p));
-                stats.holes_filled += 1;
-                grown.push(k);
+                if set[k] {
+                    stats.nearer += 1;
+                    moved.push((k, p));
+                } else {
+                    set[k] = true;
+                    stats.holes_filled += 1;
+                    px.push((k, p));
+                    grown.push(k);
+                }
             }
         }
         if grown.is_empty() {
-            return;
+            break;
         }
     }
+    moved
 }
 
 /// The rays of one bin, generated by the bin itself, row by row.
