@@ -778,7 +778,9 @@ const GROW_ROUNDS: usize = 2;
 /// - set pixels beside a nearer set 4-neighbour (a depth step of more than
 ///   four footprints: a crest in front that the plane passes over can still
 ///   cross the pixel's ray): searched from the nearer neighbours' hits,
-///   short of their own, and moved to a crossing found there.
+///   short of their own, and moved to a crossing found there; in the later
+///   rounds, those beside the pixels the last one moved (a step two pixels
+///   wide).
 ///
 /// A converged root is a true crossing of the ray, and its first, as the
 /// neighbour's whose sheet it is lies a pixel away ([`solve_from_seeds`]).
@@ -849,6 +851,7 @@ fn edge_searches(
         Some((k, dir, seeds, limit))
     };
     let mut moved = Vec::new();
+    let mut moved_from = 0;
     let mut tried: Vec<usize> = Vec::new();
     let mut grown: Vec<usize> = Vec::new();
     for round in 0..GROW_ROUNDS {
@@ -908,9 +911,10 @@ fn edge_searches(
                 })
                 .collect()
         } else {
-            // Around the pixels the last round set.
+            // Around the pixels the last round set or moved.
             let mut ks: Vec<usize> = grown
                 .iter()
+                .chain(moved[moved_from..].iter().map(|(k, _)| k))
                 .flat_map(|&k| {
                     let (i, j) = (k / w, k % w);
                     [
@@ -921,12 +925,11 @@ fn edge_searches(
                     ]
                 })
                 .flatten()
-                .filter(|&k| !set[k])
                 .collect();
             ks.sort_unstable();
             ks.dedup();
             ks.into_iter()
-                .filter(|k| tried.binary_search(k).is_err())
+                .filter(|&k| set[k] || tried.binary_search(&k).is_err())
                 .filter_map(|k| search(set, depth, k))
                 .collect()
         };
@@ -934,10 +937,10 @@ fn edge_searches(
             break;
         }
         let found = solve_from_seeds(ctx, &cands);
-
         tried.extend(cands.iter().filter(|c| c.3 == f64::INFINITY).map(|c| c.0));
         tried.sort_unstable();
         grown.clear();
+        moved_from = moved.len();
         for (list, evals) in found {
             stats.refine_evals += evals;
             for (k, p) in list {
@@ -953,10 +956,14 @@ fn edge_searches(
                 }
             }
         }
-        if grown.is_empty() {
+        if grown.is_empty() && moved.len() == moved_from {
             break;
         }
     }
+    // (a pixel moved twice keeps its last, nearer hit)
+    moved.reverse();
+    moved.sort_by_key(|(k, _)| *k);
+    moved.dedup_by_key(|(k, _)| *k);
     moved
 }
 
