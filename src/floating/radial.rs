@@ -745,6 +745,32 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
                 );
                 todo.retain(|&c| hits[c as usize].is_none());
             }
+            // An unset pixel on the image's border (no neighbour beyond it
+            // to seed a farther sheet) that no seed settled: its ray
+            // marched on from its nearest seed, in steps of two footprints,
+            // from above or from below (entering the domain under the
+            // surface, through its edge), to the domain's end or where it
+            // rises above the height bound.
+            let top = ctx.field.height_bound().map(|(_, hi)| hi);
+            for c in 0..chunk.len() {
+                let (k, dir, seeds, limit) = chunk[c];
+                let (i, j) = (k / cam.width, k % cam.width);
+                let border = i == 0 || j == 0 || i + 1 == cam.height || j + 1 == cam.width;
+                if hits[c].is_some() || limit != f64::INFINITY || !border || !seeds[0].is_finite() {
+                    continue;
+                }
+                let l0 = seeds[0];
+                let hi = match top {
+                    Some(top) if dir.z > 0.0 => (top - cam.eye.z) / dir.z,
+                    _ => f64::INFINITY,
+                };
+                if hi > l0 {
+                    let (lo, f) = (l0 - 8.0 * fp(l0), 4.0 * fp(l0));
+                    hits[c] = sw
+                        .march(dir, lo, hi, f, 1)
+                        .or_else(|| sw.march(dir, lo, hi, f, -1));
+                }
+            }
             for (c, hit) in hits.into_iter().enumerate() {
                 let Some((mut l, mut hs)) = hit else {
                     continue;
