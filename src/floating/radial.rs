@@ -884,6 +884,7 @@ fn edge_searches(
         let cands: Vec<SeedSearch> = if round == 0 {
             // The whole image, row by row, eight pixels at a time: eight
             // unset pixels without a set neighbour skipped in one test.
+            // (One thread: measured no slower than the pool's two.)
             let (set, depth) = (&*set, &*depth);
             (0..h)
                 .flat_map(|i| {
