@@ -389,6 +389,19 @@ fn bin_result(
     (Vec::new(), stats, missed)
 }
 
+/// The 4-neighbours of pixel k of a w × h image (up, down, left, right;
+/// None beyond its border).
+#[inline]
+fn neighbours4(k: usize, w: usize, h: usize) -> [Option<usize>; 4] {
+    let (i, j) = (k / w, k % w);
+    [
+        (i > 0).then(|| k - w),
+        (i + 1 < h).then(|| k + w),
+        (j > 0).then(|| k - 1),
+        (j + 1 < w).then(|| k + 1),
+    ]
+}
+
 /// The pixels a bin dropped (see [`RadialSweep::missed`]): their ray passes
 /// by the near sheet the bin's plane met, and may meet a farther one, as
 /// its set neighbours do. Each is solved on its own ray by Newton from the
@@ -416,17 +429,11 @@ fn behind_missed(
             continue;
         }
         let mut lams = [f64::NAN; 4];
-        for (m, (di, dj)) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)]
-            .into_iter()
-            .enumerate()
-        {
-            let (ni, nj) = (i as i64 + di, j as i64 + dj);
-            if ni < 0 || nj < 0 || ni >= h as i64 || nj >= w as i64 {
-                continue;
-            }
-            let n = ni as usize * w + nj as usize;
+        for (m, n) in neighbours4(k, w, h).into_iter().enumerate() {
             // (beyond where the pixel's ray was searched)
-            if set[n] && depth[n].is_finite() && depth[n] / dd > searched {
+            if let Some(n) =
+                n.filter(|&n| set[n] && depth[n].is_finite() && depth[n] / dd > searched)
+            {
                 lams[m] = depth[n] / dd;
             }
         }
@@ -829,12 +836,7 @@ fn edge_searches(
     // with a nearer one. (a depth is read only where its pixel is set)
     let search = |set: &[bool], depth: &[f64], k: usize| -> Option<SeedSearch> {
         let (i, j) = (k / w, k % w);
-        let nb = [
-            (i > 0).then(|| k - w),
-            (i + 1 < h).then(|| k + w),
-            (j > 0).then(|| k - 1),
-            (j + 1 < w).then(|| k + 1),
-        ];
+        let nb = neighbours4(k, w, h);
         let (is_set, lim) = if set[k] {
             (true, depth[k] - 4.0 * fp(depth[k]))
         } else {
@@ -942,15 +944,7 @@ fn edge_searches(
             let mut ks: Vec<usize> = grown
                 .iter()
                 .chain(moved[moved_from..].iter().map(|(k, _)| k))
-                .flat_map(|&k| {
-                    let (i, j) = (k / w, k % w);
-                    [
-                        (i > 0).then(|| k - w),
-                        (i + 1 < h).then(|| k + w),
-                        (j > 0).then(|| k - 1),
-                        (j + 1 < w).then(|| k + 1),
-                    ]
-                })
+                .flat_map(|&k| neighbours4(k, w, h))
                 .flatten()
                 .collect();
             ks.sort_unstable();
