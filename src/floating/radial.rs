@@ -797,6 +797,110 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
         .collect()
 }
 
+/// The pixels of row i that [`edge_searches`]' first round may search
+/// (appended to `ks`): on the image's border, every pixel (the search
+/// itself tells); inside, an unset pixel with a set 4-neighbour, or a set
+/// one with a 4-neighbour nearer by more than four footprints. The flags
+/// are computed branch-free over the row (in `flags`), the unset pixels'
+/// depths garbage but masked by their flags.
+#[allow(clippy::too_many_arguments)]
+fn scan_row(
+    set: &[bool],
+    depth: &[f64],
+    i: usize,
+    w: usize,
+    h: usize,
+    near: f64,
+    inv_f: f64,
+    flags: &mut Vec<u8>,
+    ks: &mut Vec<usize>,
+) {
+    let row = i * w;
+    if i == 0 || i + 1 == h || w < 3 {
+        ks.extend(row..row + w);
+        return;
+    }
+    ks.push(row);
+    let n = w - 2;
+    let (c0, c1) = (row + 1, row + 1 + n);
+    let (sc, sl, sr) = (&set[c0..c1], &set[c0 - 1..c1 - 1], &set[c0 + 1..c1 + 1]);
+    let (su, sd) = (&set[c0 - w..c1 - w], &set[c0 + w..c1 + w]);
+    let (dc, dl, dr) = (
+        &depth[c0..c1],
+        &depth[c0 - 1..c1 - 1],
+        &depth[c0 + 1..c1 + 1],
+    );
+    let (du, dd) = (&depth[c0 - w..c1 - w], &depth[c0 + w..c1 + w]);
+    flags.clear();
+    flags.resize(n, 0);
+    let nb = RowNeighbours {
+        set: [sc, sl, sr, su, sd],
+        depth: [dc, dl, dr, du, dd],
+    };
+    nb.flags(near, inv_f, flags);
+    // Eight flags at a time: most rows want few pixels.
+    let mut m = 0;
+    while m < n {
+        if m + 8 <= n {
+            let b: &[u8; 8] = flags[m..m + 8].try_into().expect("eight flags");
+            if u64::from_le_bytes(*b) == 0 {
+                m += 8;
+                continue;
+            }
+        }
+        let end = (m + 8).min(n);
+        ks.extend((m..end).filter(|&q| flags[q] != 0).map(|q| c0 + q));
+        m = end;
+    }
+    ks.push(row + w - 1);
+}
+
+/// A row's set flags and depths (centre, left, right, up, down) for
+/// [`scan_row`].
+struct RowNeighbours<'a> {
+    set: [&'a [bool]; 5],
+    depth: [&'a [f64]; 5],
+}
+
+impl RowNeighbours<'_> {
+    /// The flags of [`scan_row`] into `out` (as long as the rows).
+    fn flags(&self, near: f64, inv_f: f64, out: &mut [u8]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2 (checked above).
+                unsafe { self.flags_avx2(near, inv_f, out) };
+                return;
+            }
+        }
+        self.flags_impl(near, inv_f, out)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn flags_avx2(&self, near: f64, inv_f: f64, out: &mut [u8]) {
+        self.flags_impl(near, inv_f, out)
+    }
+
+    #[inline(always)]
+    fn flags_impl(&self, near: f64, inv_f: f64, out: &mut [u8]) {
+        let n = out.len();
+        let [sc, sl, sr, su, sd] = self.set.map(|x| &x[..n]);
+        let [dc, dl, dr, du, dd] = self.depth.map(|x| &x[..n]);
+        for m in 0..n {
+            let dk = dc[m];
+            let lim = dk - 4.0 * dk.max(near) * inv_f;
+            let (l, r, u, d) = (sl[m] as u8, sr[m] as u8, su[m] as u8, sd[m] as u8);
+            let nearer = (l & (dl[m] < lim) as u8)
+                | (r & (dr[m] < lim) as u8)
+                | (u & (du[m] < lim) as u8)
+                | (d & (dd[m] < lim) as u8);
+            let s = sc[m] as u8;
+            out[m] = (s & nearer) | ((s ^ 1) & (l | r | u | d));
+        }
+    }
+}
+
 /// Rounds of [`edge_searches`] on the mask's edge: it grows by up to this
 /// many pixels.
 const GROW_ROUNDS: usize = 2;
@@ -884,61 +988,26 @@ fn edge_searches(
     let mut grown: Vec<usize> = Vec::new();
     for round in 0..GROW_ROUNDS {
         let cands: Vec<SeedSearch> = if round == 0 {
-            // The whole image, row by row, eight pixels at a time: eight
-            // unset pixels without a set neighbour skipped in one test.
-            // (One thread: measured no slower than the pool's two.)
+            // The whole image, a band of rows per task, each row's flags
+            // computed branch-free ([`scan_row`]); the search itself is
+            // rarely wanted. (The bands' results in row order: the same
+            // for any thread count.)
             let (set, depth) = (&*set, &*depth);
-            (0..h)
-                .flat_map(|i| {
-                    let row = i * w;
-                    let mut found = Vec::new();
-                    let mut j = 0;
-                    while j < w {
-                        // (a window of eight, or one pixel near the ends)
-                        let mut end = j + 1;
-                        if j >= 1 && j + 9 <= w {
-                            let here = bytes8(set, row + j);
-                            let mut nb = bytes8(set, row + j - 1) | bytes8(set, row + j + 1);
-                            if i > 0 {
-                                nb |= bytes8(set, row - w + j);
-                            }
-                            if i + 1 < h {
-                                nb |= bytes8(set, row + w + j);
-                            }
-                            if here == 0 && nb == 0 {
-                                j += 8;
-                                continue;
-                            }
-                            end = j + 8;
-                        }
-                        for j in j..end {
-                            let k = row + j;
-                            // (inside the image: a branch-free test of the
-                            // four neighbours first, garbage depths masked by
-                            // their flags; the search itself is rarely wanted)
-                            let inner = i > 0 && i + 1 < h && j > 0 && j + 1 < w;
-                            let wanted = !inner || {
-                                let (l, r, u, d) = (k - 1, k + 1, k - w, k + w);
-                                if set[k] {
-                                    let dk = depth[k];
-                                    let lim = dk - 4.0 * fp(dk);
-                                    (set[l] & (depth[l] < lim))
-                                        | (set[r] & (depth[r] < lim))
-                                        | (set[u] & (depth[u] < lim))
-                                        | (set[d] & (depth[d] < lim))
-                                } else {
-                                    set[l] | set[r] | set[u] | set[d]
-                                }
-                            };
-                            if wanted {
-                                found.extend(search(set, depth, k));
-                            }
-                        }
-                        j = end;
+            const BAND: usize = 16;
+            let bands: Vec<Vec<SeedSearch>> = (0..h.div_ceil(BAND))
+                .into_par_iter()
+                .map(|b| {
+                    let mut ks = Vec::new();
+                    let mut flags = Vec::new();
+                    for i in b * BAND..((b + 1) * BAND).min(h) {
+                        scan_row(set, depth, i, w, h, cam.near, inv_f, &mut flags, &mut ks);
                     }
-                    found
+                    ks.into_iter()
+                        .filter_map(|k| search(set, depth, k))
+                        .collect()
                 })
-                .collect()
+                .collect();
+            bands.into_iter().flatten().collect()
         } else {
             // Around the pixels the last round set or moved.
             let mut ks: Vec<usize> = grown
