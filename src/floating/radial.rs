@@ -690,8 +690,8 @@ fn fill_holes(
                 }
                 let (lo, hi) = (l1.min(l2) - 8.0 * fp, l1.max(l2) + 8.0 * fp);
                 let hit = sw
-                    .march(dir, lo, hi, fp, 1)
-                    .or_else(|| sw.march(dir, lo, hi, fp, -1));
+                    .march(cam.eye, dir, lo, hi, fp, 1)
+                    .or_else(|| sw.march(cam.eye, dir, lo, hi, fp, -1));
                 if let Some((l, hs)) = hit {
                     let p = hit_pixel(ctx, dir, cam.eye + l * dir, &hs);
                     set[i * w + j] = true;
@@ -707,9 +707,43 @@ fn fill_holes(
 }
 
 /// A pixel to search on its own ray (see [`solve_from_seeds`]): its index,
-/// its ray, seeds along it (nearest first, NaN for none) and the distance
-/// its crossing must lie before.
-type SeedSearch = (usize, DVec3, [f64; 4], f64);
+/// its ray (origin, direction), seeds along it (nearest first, NaN for
+/// none) and the distance its crossing must lie before.
+type SeedSearch = (usize, (DVec3, DVec3), [f64; 4], f64);
+
+/// The world size of a pixel at distance l along a ray: l / F in
+/// perspective (from the near distance on), the pixel's size in an
+/// orthographic view; as max(l, near)·scale + fixed, branch-free.
+#[derive(Debug, Clone, Copy)]
+struct Footprint {
+    near: f64,
+    scale: f64,
+    fixed: f64,
+}
+
+impl Footprint {
+    fn of(cam: &crate::camera::Camera) -> Self {
+        if cam.perspective {
+            Footprint {
+                near: cam.near,
+                scale: 1.0 / cam.focal,
+                fixed: 0.0,
+            }
+        } else {
+            Footprint {
+                near: f64::NEG_INFINITY,
+                scale: 0.0,
+                fixed: cam.pixel,
+            }
+        }
+    }
+
+    /// (NaN for a non-finite l in an orthographic view.)
+    #[inline(always)]
+    fn at(&self, l: f64) -> f64 {
+        l.max(self.near) * self.scale + self.fixed
+    }
+}
 
 /// The searches of [`edge_searches`]: each pixel's ray
 /// solved by Newton from its seeds in turn (bracket ± 8 footprints, and
@@ -727,7 +761,8 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
             let mut sc = super::refine::NewtonScratch::default();
             let mut out = Vec::new();
             let mut evals = 0;
-            let fp = |l: f64| l.max(cam.near) / cam.focal;
+            let fpt = Footprint::of(cam);
+            let fp = |l: f64| fpt.at(l);
             // The chunk's pixels by their m-th seed, batched: those whose
             // seed m − 1 did not settle.
             let mut todo: Vec<u32> = (0..chunk.len() as u32).collect();
@@ -742,7 +777,7 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
                     ctx,
                     todo.len(),
                     seed,
-                    |q| (cam.eye, chunk[todo[q] as usize].1),
+                    |q| chunk[todo[q] as usize].1,
                     |q| {
                         let (l, limit) = (seed(q), chunk[todo[q] as usize].3);
                         (l - 8.0 * fp(l), (l + 8.0 * fp(l)).min(limit), fp(l))
@@ -760,7 +795,7 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
             // rises above the height bound.
             let top = ctx.field.height_bound().map(|(_, hi)| hi);
             for c in 0..chunk.len() {
-                let (k, dir, seeds, limit) = chunk[c];
+                let (k, (o, dir), seeds, limit) = chunk[c];
                 let (i, j) = (k / cam.width, k % cam.width);
                 let border = i == 0 || j == 0 || i + 1 == cam.height || j + 1 == cam.width;
                 if hits[c].is_some() || limit != f64::INFINITY || !border || !seeds[0].is_finite() {
@@ -768,29 +803,29 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
                 }
                 let l0 = seeds[0];
                 let hi = match top {
-                    Some(top) if dir.z > 0.0 => (top - cam.eye.z) / dir.z,
+                    Some(top) if dir.z > 0.0 => (top - o.z) / dir.z,
                     _ => f64::INFINITY,
                 };
                 if hi > l0 {
                     let (lo, f) = (l0 - 8.0 * fp(l0), 4.0 * fp(l0));
                     hits[c] = sw
-                        .march(dir, lo, hi, f, 1)
-                        .or_else(|| sw.march(dir, lo, hi, f, -1));
+                        .march(o, dir, lo, hi, f, 1)
+                        .or_else(|| sw.march(o, dir, lo, hi, f, -1));
                 }
             }
             for (c, hit) in hits.into_iter().enumerate() {
                 let Some((mut l, mut hs)) = hit else {
                     continue;
                 };
-                let (k, dir, _, _) = chunk[c];
+                let (k, (o, dir), _, _) = chunk[c];
                 if hs.normal().dot(dir) > 0.0 {
                     // The under side: the entry before it, if any.
                     let f = fp(l);
-                    if let Some(x) = sw.march(dir, l - 16.0 * f, l - 1e-3 * f, f, 1) {
+                    if let Some(x) = sw.march(o, dir, l - 16.0 * f, l - 1e-3 * f, f, 1) {
                         (l, hs) = x;
                     }
                 }
-                out.push((k, hit_pixel(ctx, dir, cam.eye + l * dir, &hs)));
+                out.push((k, hit_pixel(ctx, dir, o + l * dir, &hs)));
             }
             (out, evals + sw.stats.refine_evals)
         })
@@ -810,8 +845,7 @@ fn scan_row(
     i: usize,
     w: usize,
     h: usize,
-    near: f64,
-    inv_f: f64,
+    fp: Footprint,
     flags: &mut Vec<u8>,
     ks: &mut Vec<usize>,
 ) {
@@ -837,7 +871,7 @@ fn scan_row(
         set: [sc, sl, sr, su, sd],
         depth: [dc, dl, dr, du, dd],
     };
-    nb.flags(near, inv_f, flags);
+    nb.flags(fp, flags);
     // Eight flags at a time: most rows want few pixels.
     let mut m = 0;
     while m < n {
@@ -864,32 +898,32 @@ struct RowNeighbours<'a> {
 
 impl RowNeighbours<'_> {
     /// The flags of [`scan_row`] into `out` (as long as the rows).
-    fn flags(&self, near: f64, inv_f: f64, out: &mut [u8]) {
+    fn flags(&self, fp: Footprint, out: &mut [u8]) {
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx2") {
                 // SAFETY: the CPU supports AVX2 (checked above).
-                unsafe { self.flags_avx2(near, inv_f, out) };
+                unsafe { self.flags_avx2(fp, out) };
                 return;
             }
         }
-        self.flags_impl(near, inv_f, out)
+        self.flags_impl(fp, out)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn flags_avx2(&self, near: f64, inv_f: f64, out: &mut [u8]) {
-        self.flags_impl(near, inv_f, out)
+    unsafe fn flags_avx2(&self, fp: Footprint, out: &mut [u8]) {
+        self.flags_impl(fp, out)
     }
 
     #[inline(always)]
-    fn flags_impl(&self, near: f64, inv_f: f64, out: &mut [u8]) {
+    fn flags_impl(&self, fp: Footprint, out: &mut [u8]) {
         let n = out.len();
         let [sc, sl, sr, su, sd] = self.set.map(|x| &x[..n]);
         let [dc, dl, dr, du, dd] = self.depth.map(|x| &x[..n]);
         for m in 0..n {
             let dk = dc[m];
-            let lim = dk - 4.0 * dk.max(near) * inv_f;
+            let lim = dk - 4.0 * fp.at(dk);
             let (l, r, u, d) = (sl[m] as u8, sr[m] as u8, su[m] as u8, sd[m] as u8);
             let nearer = (l & (dl[m] < lim) as u8)
                 | (r & (dr[m] < lim) as u8)
@@ -934,8 +968,8 @@ fn edge_searches(
 ) -> Vec<(usize, Pixel)> {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
-    let inv_f = 1.0 / cam.focal;
-    let fp = |l: f64| l.max(cam.near) * inv_f;
+    let fpt = Footprint::of(cam);
+    let fp = |l: f64| fpt.at(l);
     // Pixel k's search, if it is one: unset with a set neighbour, or set
     // with a nearer one. (a depth is read only where its pixel is set)
     let search = |set: &[bool], depth: &[f64], k: usize| -> Option<SeedSearch> {
@@ -957,30 +991,33 @@ fn edge_searches(
         if !any {
             return None;
         }
-        let (_, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
+        let (o, dir) = cam.ray(i as f64 + off.0, j as f64 + off.1);
         let dd = dir.dot(cam.d);
         if dd.is_nan() || dd <= 0.0 {
             return None;
         }
         zs.sort_by(f64::total_cmp);
+        // Depth z lies at (z − z0) / (dir·d) along the ray (z0 = 0 from the
+        // eye; an orthographic ray starts on the eye's plane).
+        let z0 = (o - cam.eye).dot(cam.d);
         // One seed per sheet: the nearest of those within 16 footprints of
         // each other.
         let mut seeds = [f64::NAN; 4];
         let mut c = 0;
         for &z in zs.iter().filter(|z| z.is_finite()) {
-            let l = z / dd;
+            let l = (z - z0) / dd;
             if c == 0 || l - seeds[c - 1] > 16.0 * fp(l) {
                 seeds[c] = l;
                 c += 1;
             }
         }
         let limit = if is_set {
-            let l = depth[k] / dd;
+            let l = (depth[k] - z0) / dd;
             l - 2.0 * fp(l)
         } else {
             f64::INFINITY
         };
-        Some((k, dir, seeds, limit))
+        Some((k, (o, dir), seeds, limit))
     };
     let mut moved = Vec::new();
     let mut moved_from = 0;
@@ -1000,7 +1037,7 @@ fn edge_searches(
                     let mut ks = Vec::new();
                     let mut flags = Vec::new();
                     for i in b * BAND..((b + 1) * BAND).min(h) {
-                        scan_row(set, depth, i, w, h, cam.near, inv_f, &mut flags, &mut ks);
+                        scan_row(set, depth, i, w, h, fpt, &mut flags, &mut ks);
                     }
                     ks.into_iter()
                         .filter_map(|k| search(set, depth, k))
@@ -2763,7 +2800,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             for (&(k, lam, l_in, z), h) in ck.starts.iter().zip(hs.iter()) {
                 if h.is_finite() && z > h.f {
                     let j = self.jobs[k as usize];
-                    if let Some((l, hs)) = self.march(j.dir, l_in, lam - 1e-3 * j.fp, j.fp, 1) {
+                    if let Some((l, hs)) = self.march(e, j.dir, l_in, lam - 1e-3 * j.fp, j.fp, 1) {
                         self.put_hit(&j, l, &hs);
                     }
                 }
@@ -2775,7 +2812,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             // (up to just before it: a crest's sliver can be thinner than
             // the march's step).
             if let Some((l, hs)) =
-                self.march(j.dir, j.lo - 8.0 * j.fp, lam - 1e-3 * j.fp, j.fp, j.side)
+                self.march(e, j.dir, j.lo - 8.0 * j.fp, lam - 1e-3 * j.fp, j.fp, j.side)
             {
                 self.put_hit(&j, l, &hs);
             }
@@ -2787,7 +2824,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         failed.sort_unstable();
         for &k in &failed {
             let j = self.jobs[k as usize];
-            match self.march(j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, j.side) {
+            match self.march(e, j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, j.side) {
                 Some((lam, hs)) => self.put_hit(&j, lam, &hs),
                 None => {
                     // No hit near the span that revealed the pixel: its ray
@@ -3016,6 +3053,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// surface, stepping back if needed.
     fn march(
         &mut self,
+        e: DVec3,
         dir: DVec3,
         lo: f64,
         hi: f64,
@@ -3023,7 +3061,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         side: i8,
     ) -> Option<(f64, HeightSample)> {
         let ctx = self.ctx;
-        let e = ctx.cam.eye;
         let dom = ctx.frame.domain;
         let h = |s: &mut Self, l: f64| -> Option<f64> {
             let p = e + l * dir;
@@ -3114,7 +3151,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     continue;
                 };
                 if ga * gb <= 0.0 {
-                    return self.crossing(dir, (la, ga), (lb, gb), fp, outside);
+                    return self.crossing(e, dir, (la, ga), (lb, gb), fp, outside);
                 }
                 la = lb;
                 ga = gb;
@@ -3129,6 +3166,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// step would leave it; with the surface sample there.
     fn crossing(
         &mut self,
+        e: DVec3,
         dir: DVec3,
         (mut a, ga): (f64, f64),
         (mut b, gb): (f64, f64),
@@ -3136,7 +3174,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         outside: f64,
     ) -> Option<(f64, HeightSample)> {
         let ctx = self.ctx;
-        let e = ctx.cam.eye;
         let eval = |s: &mut Self, l: f64| -> Option<(f64, f64)> {
             let p = e + l * dir;
             s.stats.refine_evals += 1;
