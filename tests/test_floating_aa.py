@@ -245,8 +245,11 @@ EDGE_CASES = [
 ]
 
 
-@pytest.mark.parametrize("case,measured", EDGE_CASES, ids=["sinuv-24", "bump", "sinuv-20"])
-def test_perspective_edges_against_exact_hit(case, measured):
+def check_edges(case, measured, near, far):
+    """The default render of `case` against the exact hit at 48 × 40 and
+    160 × 120, `measured` the (missing, farther) counts of each size; a
+    pixel is nearer (farther) than the first hit where its depth is below
+    near(rd, h) (above far(rd, h))."""
     name, view = case
     f, g, dom = SURFACES[name]
     for (w, h), (missing, farther) in zip(((W, H), (160, 120)), measured):
@@ -259,6 +262,38 @@ def test_perspective_edges_against_exact_hit(case, measured):
         # hit does not see, never nearer than its first hit. (+2: a
         # silhouette pixel or two may move with the platform's rounding)
         assert (m & ~rm).sum() == 0, (w, h)
-        assert (both & (d < rd * (1 - 1e-3))).sum() == 0, (w, h)
+        assert (both & (d < near(rd, h))).sum() == 0, (w, h)
         assert (rm & ~m).sum() <= missing + 2, (w, h, (rm & ~m).sum())
-        assert (both & (d > rd * (1 + 1e-3))).sum() <= farther + 2, (w, h)
+        assert (both & (d > far(rd, h))).sum() <= farther + 2, (w, h, (both & (d > far(rd, h))).sum())
+
+
+@pytest.mark.parametrize("case,measured", EDGE_CASES, ids=["sinuv-24", "bump", "sinuv-20"])
+def test_perspective_edges_against_exact_hit(case, measured):
+    check_edges(case, measured, lambda rd, h: rd * (1 - 1e-3), lambda rd, h: rd * (1 + 1e-3))
+
+
+# The same for orthographic views: every set pixel is a crossing of its own
+# ray (an unsolved one is marched over its span's bracket, else left for the
+# searches after the columns), and the pixels beside set ones are searched
+# on their own rays. Measured at 48 × 40 and 160 × 120: missing (2, 1),
+# (2, 2), (1, 1), (0, 0), (0, 0); farther (8, 17), (4, 8), (9, 5), (5, 10),
+# (0, 0). Before the searches and the march: missing (12, 32), (14, 19),
+# (2, 6), (1, 7), (0, 0); farther (31, 53), (16, 44), (23, 22), (15, 38),
+# (2, 0); and up to 11 pixels nearer than the first hit (interpolated where
+# the exact solve failed).
+ORTHO_EDGE_CASES = [
+    (("sinuv", fcol.View(30, 30, view_height=13.0)), ((2, 8), (1, 17))),
+    (("sinuv", fcol.View(55, 310, view_height=12.0)), ((2, 4), (2, 8))),
+    (("ripples", fcol.View(20, 75, view_height=9.0)), ((1, 9), (1, 5))),
+    (("dem", fcol.View(35, 120, view_height=10.0)), ((0, 5), (0, 10))),
+    (("bump", fcol.View(25, 20, view_height=7.0)), ((0, 0), (0, 0))),
+]
+
+
+@pytest.mark.parametrize(
+    "case,measured", ORTHO_EDGE_CASES, ids=["sinuv-30", "sinuv-55", "ripples", "dem", "bump"]
+)
+def test_orthographic_edges_against_exact_hit(case, measured):
+    # (orthographic depths are signed: a tolerance of 0.05 pixel)
+    px = case[1].view_height
+    check_edges(case, measured, lambda rd, h: rd - 0.05 * px / h, lambda rd, h: rd + 0.05 * px / h)

@@ -77,6 +77,11 @@ pub struct Ctx<'a> {
     /// Exact solve of the pixels whose interpolation the error estimate
     /// does not trust (the default mode; implied by `refine`).
     pub fallback: bool,
+    /// The pixels beside set ones are searched on their own rays after the
+    /// sweeps (orthographic views, see `radial::edge_searches`): a pixel
+    /// whose exact solve finds no crossing is left unset for them rather
+    /// than interpolated.
+    pub searched: bool,
 }
 
 /// Covered rows of a column: disjoint closed intervals, sorted.
@@ -487,14 +492,39 @@ async unsafe fn column_task(
     }
     if !sw.jobs.is_empty() {
         let (failed, evals) = super::refine::solve_with(ctx, &sw.jobs, out, &mut sc.solve);
-        if ctx.opts.shading == ShadingMode::Normal {
-            for &slot in failed {
+        sw.stats.refine_evals += evals;
+        sw.stats.refine_fail += failed.len() as u64;
+        for &slot in failed {
+            if ctx.searched {
+                // As in `solve_ortho`: the ray marched over its bracket
+                // (widened by eight pixels), else left for the searches.
+                let Some(j) = sw.jobs.iter().find(|j| j.slot == slot) else {
+                    continue;
+                };
+                let side = out[slot].side;
+                let (lo, hi) = (j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp);
+                let (hit, n) = super::radial::march_ray(ctx, j.o, j.dir, lo, hi, j.fp, side);
+                sw.stats.refine_evals += n;
+                match hit {
+                    Some((l, h)) => {
+                        let q = j.o + l * j.dir;
+                        let depth = (q - ctx.cam.eye).dot(ctx.cam.d);
+                        super::refine::finish(
+                            ctx,
+                            &mut out[slot],
+                            j.dir,
+                            depth,
+                            DVec2::new(q.x, q.y),
+                            &h,
+                        );
+                    }
+                    None => out[slot].set = false,
+                }
+            } else if ctx.opts.shading == ShadingMode::Normal {
                 let (_, dir) = ctx.cam.ray(slot as f64, col);
                 out[slot].inten = ctx.shading.intensity(out[slot].n, -dir);
             }
         }
-        sw.stats.refine_evals += evals;
-        sw.stats.refine_fail += failed.len() as u64;
     }
     if let Some(fine) = &sw.fine {
         // §6.4: each pixel's covered fraction of its row extent
@@ -566,54 +596,89 @@ fn solve_ortho(
         newton,
         |k, l, q, h| {
             let j = &jobs[k];
-            let s = &spans[j.span as usize];
-            let nrm = h.normal();
-            let c = -d.dot(nrm);
-            let side = if c > 0.0 {
-                1
-            } else if c < 0.0 {
-                -1
-            } else {
-                s.topo
-            };
-            let inten = if normal {
-                ctx.shading.intensity(nrm, -d)
-            } else {
-                s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
-            };
-            match direct {
-                // SAFETY: the caller of `render_column_direct` guarantees
-                // that no other thread touches column `j`'s pixels.
-                Some(dst) => unsafe {
-                    let k = j.slot as usize * dst.width + dst.j;
-                    dst.out
-                        .put_hit(k, side, inten, l, nrm, DVec2::new(q.x, q.y));
-                },
-                None => {
-                    out[j.slot as usize] = Pixel {
-                        set: true,
-                        side,
-                        depth: l,
-                        n: nrm,
-                        uv: DVec2::new(q.x, q.y),
-                        inten,
-                        cover: 1.0,
-                    }
-                }
-            }
+            put_exact(ctx, out, direct, j, &spans[j.span as usize], l, q, h);
         },
     );
-    // The failed pixels keep their span's interpolation.
+    // A failed pixel's ray marched over its span's bracket (widened by
+    // eight pixels) from the side the span reveals; with no crossing there,
+    // it is left unset for the searches after the sweeps (`ctx.searched`)
+    // or keeps its span's interpolation.
     let failed = newton.failed();
+    let mut evals = evals;
     for &k in failed {
         let j = &jobs[k as usize];
-        let mut px = spans[j.span as usize].pixel(j.tau, j.lam);
-        if normal {
-            px.inten = ctx.shading.intensity(px.n, -d);
+        let s = &spans[j.span as usize];
+        let o = orig[k as usize];
+        let (hit, n) =
+            super::radial::march_ray(ctx, o, d, s.lo - 8.0 * fp, s.hi + 8.0 * fp, fp, s.topo);
+        evals += n;
+        if let Some((l, h)) = hit {
+            put_exact(ctx, out, direct, j, s, l, o + l * d, &h);
+        } else if ctx.searched {
+            if direct.is_none() {
+                out[j.slot as usize].set = false;
+            }
+        } else {
+            let mut px = s.pixel(j.tau, j.lam);
+            if normal {
+                px.inten = ctx.shading.intensity(px.n, -d);
+            }
+            put_solved(out, direct, j.slot, &px);
         }
-        put_solved(out, direct, j.slot, &px);
     }
     (failed.len() as u64, evals)
+}
+
+/// Write the exact hit of job `j` (span `s`) at distance `l` along its ray,
+/// point `q`, surface sample `h` (see [`solve_ortho`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn put_exact(
+    ctx: &Ctx<'_>,
+    out: &mut [Pixel],
+    direct: Option<&Direct<'_, '_>>,
+    j: &super::refine::SeedJob,
+    s: &super::refine::SpanSeed,
+    l: f64,
+    q: DVec3,
+    h: &crate::surface::HeightSample,
+) {
+    let d = ctx.cam.d;
+    let normal = ctx.opts.shading == ShadingMode::Normal;
+    let nrm = h.normal();
+    let c = -d.dot(nrm);
+    let side = if c > 0.0 {
+        1
+    } else if c < 0.0 {
+        -1
+    } else {
+        s.topo
+    };
+    let inten = if normal {
+        ctx.shading.intensity(nrm, -d)
+    } else {
+        s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
+    };
+    match direct {
+        // SAFETY: the caller of `render_column_direct` guarantees
+        // that no other thread touches column `j`'s pixels.
+        Some(dst) => unsafe {
+            let k = j.slot as usize * dst.width + dst.j;
+            dst.out
+                .put_hit(k, side, inten, l, nrm, DVec2::new(q.x, q.y));
+        },
+        None => {
+            out[j.slot as usize] = Pixel {
+                set: true,
+                side,
+                depth: l,
+                n: nrm,
+                uv: DVec2::new(q.x, q.y),
+                inten,
+                cover: 1.0,
+            }
+        }
+    }
 }
 
 /// Write a finished pixel of row `slot` of an orthographic column: into

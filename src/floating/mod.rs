@@ -225,6 +225,8 @@ pub fn render_floating_column(
         opts,
         refine: opts.refine && wants,
         fallback: wants,
+        // (see the orthographic pass below)
+        searched: !(cam.perspective || opts.antialias > 1 && outputs.needs_shading()),
     };
     let mut buf = Buffers::new(width, height, outputs, shading.background);
     let aa = opts.antialias;
@@ -297,10 +299,22 @@ pub fn render_floating_column(
         // Every column writes its pixels straight into the row-major
         // buffers (each pixel belongs to one column); a worker's columns
         // reuse one scratch (pixels, sweep and solve buffers).
-        let out = SharedOut::new(&mut buf, shading);
         // Plain renders: groups of columns whose sweeps share their batched
-        // evaluations (column::render_columns_direct).
-        let group = if shade_aa || cov { 1 } else { column::GROUP };
+        // evaluations (column::render_columns_direct), their set pixels
+        // marked for the searches at the mask's edge and the depth steps.
+        let plain = !shade_aa && !cov;
+        let searched = ctx.searched;
+        let n = if searched { width * height } else { 0 };
+        let mut set = crate::scratch::ScratchArray::<bool>::zeroed(n);
+        let mut zs = crate::scratch::ScratchArray::<f64>::any(n);
+        let mut covered = vec![0.0f32; if cov { n } else { 0 }];
+        let out = SharedOut::new(&mut buf, shading);
+        let out = if searched {
+            out.with_marks(&mut set, &mut zs, &mut covered)
+        } else {
+            out
+        };
+        let group = if plain { column::GROUP } else { 1 };
         total = with_threads(opts.threads, || {
             (0..width.div_ceil(group))
                 .into_par_iter()
@@ -320,6 +334,35 @@ pub fn render_floating_column(
                     Ok(a)
                 })
         })??;
+        if searched {
+            // A crest's top or a domain edge between the column's samples,
+            // and a crest in front that the plane's samples step over: the
+            // pixels beside set ones searched on their own rays (as in
+            // perspective, see radial::edge_searches).
+            let found = with_threads(opts.threads, || {
+                let mut px = Vec::new();
+                let moved =
+                    radial::edge_searches(&ctx, (0.0, 0.0), &mut set, &mut zs, &mut px, &mut total);
+                px.extend(moved);
+                px
+            })?;
+            let out = SharedOut::new(&mut buf, shading);
+            for (k, p) in &found {
+                // With coverage, a pixel the column covers in part keeps
+                // that fraction (§6.4), its colour blended with it.
+                let f = if cov { covered[*k] as f64 } else { 1.0 };
+                // SAFETY: the columns are done; this thread alone writes.
+                // A found pixel is set.
+                unsafe {
+                    if f > 0.0 && f < 1.0 {
+                        let p = Pixel { cover: f, ..*p };
+                        out.put_with(*k, &p, Some(shade(&p, shading, true)));
+                    } else {
+                        out.put_set(*k, p);
+                    }
+                }
+            }
+        }
     }
     buf.samples = total.sweep_evals + total.refine_evals;
     buf.stat("sweep_samples", total.sweep_evals as f64);
@@ -576,6 +619,13 @@ pub(crate) struct SharedOut<'a> {
     uv: *mut f32,
     side: *mut i8,
     mask: *mut bool,
+    /// Set flags and depths (f64) of the set pixels, for the searches after
+    /// the columns (null: not kept).
+    set: *mut bool,
+    zs: *mut f64,
+    /// Covered fractions of the pixels written with [`Self::put_with`]
+    /// (coverage renders; null: not kept).
+    cover: *mut f32,
     shading: &'a Shading,
     _buf: std::marker::PhantomData<&'a mut Buffers>,
 }
@@ -599,9 +649,33 @@ impl<'a> SharedOut<'a> {
             uv: ptr(&mut buf.uv),
             side: ptr(&mut buf.side),
             mask: ptr(&mut buf.mask),
+            set: std::ptr::null_mut(),
+            zs: std::ptr::null_mut(),
+            cover: std::ptr::null_mut(),
             shading,
             _buf: std::marker::PhantomData,
         }
+    }
+
+    /// Also mark each written pixel set, with its depth, in `set` and `zs`,
+    /// and (if `cover` is not empty) the covered fraction of each pixel
+    /// written with [`Self::put_with`] in `cover` (each as long as the
+    /// image).
+    fn with_marks(mut self, set: &'a mut [bool], zs: &'a mut [f64], cover: &'a mut [f32]) -> Self {
+        assert!(
+            set.len() == self.n && zs.len() == self.n,
+            "marks of the image's size"
+        );
+        self.set = set.as_mut_ptr();
+        self.zs = zs.as_mut_ptr();
+        if !cover.is_empty() {
+            assert!(
+                cover.len() == self.n,
+                "covered fractions of the image's size"
+            );
+            self.cover = cover.as_mut_ptr();
+        }
+        self
     }
 
     /// Write a set pixel k without supersampling: what [`write_pixel`]
@@ -661,6 +735,10 @@ impl<'a> SharedOut<'a> {
             if !self.mask.is_null() {
                 *self.mask.add(k) = true;
             }
+            if !self.set.is_null() {
+                *self.set.add(k) = true;
+                *self.zs.add(k) = depth;
+            }
         }
     }
 
@@ -695,6 +773,16 @@ impl<'a> SharedOut<'a> {
             }
         };
         write_pixel(&mut px, 0, p, acc, self.shading);
+        // SAFETY: as above (the marks hold n pixels).
+        unsafe {
+            if p.set && !self.set.is_null() {
+                *self.set.add(k) = true;
+                *self.zs.add(k) = p.depth;
+            }
+            if !self.cover.is_null() {
+                *self.cover.add(k) = p.cover as f32;
+            }
+        }
     }
 }
 

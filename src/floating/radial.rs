@@ -935,6 +935,23 @@ impl RowNeighbours<'_> {
     }
 }
 
+/// [`RadialSweep::march`] for a caller without a sweep: the first crossing
+/// of the ray o + λ·dir over [lo, hi] from the `side` side, and the
+/// evaluations it took.
+pub(super) fn march_ray(
+    ctx: &Ctx<'_>,
+    o: DVec3,
+    dir: DVec3,
+    lo: f64,
+    hi: f64,
+    fp: f64,
+    side: i8,
+) -> (Option<(f64, HeightSample)>, u64) {
+    let mut sw = RadialSweep::new(ctx, 0.0, &[]);
+    let hit = sw.march(o, dir, lo, hi, fp, side);
+    (hit, sw.stats.refine_evals)
+}
+
 /// Rounds of [`edge_searches`] on the mask's edge: it grows by up to this
 /// many pixels.
 const GROW_ROUNDS: usize = 2;
@@ -958,7 +975,7 @@ const GROW_ROUNDS: usize = 2;
 /// The first round's two kinds are found in one pass over the image and
 /// solved together. Returns the moved pixels (their depths updated); the
 /// pixels set are added to `px`.
-fn edge_searches(
+pub(super) fn edge_searches(
     ctx: &Ctx<'_>,
     off: (f64, f64),
     set: &mut [bool],
@@ -3076,8 +3093,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // of it spends only a few footprints there).
         let (l_in, l_out) =
             super::sampling::domain_range(&dom, DVec2::new(e.x, e.y), DVec2::new(dir.x, dir.y))?;
-        let l_in = l_in.max(0.0); // forward along the ray only
-                                  // Just inside the edges (rounding).
+        // Forward along a perspective ray only (an orthographic one is a
+        // whole line, its origin on the eye's plane).
+        let l_in = if ctx.cam.perspective {
+            l_in.max(0.0)
+        } else {
+            l_in
+        };
+        // Just inside the edges (rounding).
         let pad = 1e-9 * fp;
         let (l_in, l_out) = (l_in + pad, l_out - pad);
         let hi = hi.min(l_out);
@@ -3305,6 +3328,7 @@ mod tests {
                 opts: &opts,
                 refine: true,
                 fallback: true,
+                searched: false,
             };
             let (lists, stats) = render_radial(&ctx, (0.0, 0.0), None, &Cancel::new()).unwrap();
             dropped += stats.refine_fail;
@@ -3355,6 +3379,7 @@ mod tests {
                     opts: &opts,
                     refine,
                     fallback: true,
+                    searched: false,
                 };
                 for off in [(0.0, 0.0), (0.25, -0.375)] {
                     let pixels = |two_pass: bool| {

@@ -440,6 +440,7 @@ fn coverage_of_a_flat_square() {
             opts: &opts,
             refine: false,
             fallback: false,
+            searched: false,
         };
         let end = 0.5 - 2.0 * (1.0 - el.to_radians().sin());
         for j in 0..4 {
@@ -520,10 +521,11 @@ fn pseudo_elevation_is_tan_half_angle_and_monotone() {
     }
 }
 
-/// An orthographic render, whose columns run in groups sharing their
-/// batched evaluations, holds exactly the pixels each column gives alone
-/// (a width not a multiple of the group, a compiled expression so that the
-/// shared batches take the vectorised path).
+/// An orthographic render's columns, run in groups sharing their batched
+/// evaluations (before the searches after the columns), hold exactly the
+/// pixels each column gives alone (a width not a multiple of the group, a
+/// compiled expression so that the shared batches take the vectorised
+/// path).
 #[test]
 fn grouped_columns_equal_single_columns() {
     let d = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
@@ -532,8 +534,6 @@ fn grouped_columns_equal_single_columns() {
     let cam = Camera::new(&ortho(30.0, 30.0, 13.0), w, h).unwrap();
     let sh = Shading::default();
     let opts = FloatingOptions::default();
-    let b =
-        render_floating_column(&f, &cam.view, w, h, &all(), &sh, &opts, &Cancel::new()).unwrap();
     let ctx = Ctx {
         cam: &cam,
         frame: sampling::Frame::new(&cam, f.domain()),
@@ -542,7 +542,16 @@ fn grouped_columns_equal_single_columns() {
         opts: &opts,
         refine: true,
         fallback: true,
+        searched: true,
     };
+    let mut b = Buffers::new(w, h, &all(), sh.background);
+    {
+        let out = SharedOut::new(&mut b, &sh);
+        for g in 0..w.div_ceil(column::GROUP) {
+            let js = g * column::GROUP..((g + 1) * column::GROUP).min(w);
+            with_scratch(js.len(), |scs| ortho_group(&ctx, js, scs, &out));
+        }
+    }
     let (depth, normal, mask) = (b.depth.unwrap(), b.normal.unwrap(), b.mask.unwrap());
     let mut seen = 0;
     for j in 0..w {
@@ -598,6 +607,7 @@ fn column_buffers_carry_nothing_between_renders() {
             opts,
             refine: opts.refine,
             fallback: true,
+            searched: false,
         }
     }
     let ctx_plain = ctx_of(&cam, &f, &sh, &plain);
