@@ -118,7 +118,13 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   solved: depth stays within 0.02 px median, 0.5 px p99, normals
 ///   carry the interpolation error (0.2° median on smooth surfaces, up to
 ///   a few degrees on a grid's kinks); it saves about 10 % of the time
-///   (orthographic; little in perspective);
+///   (orthographic; little in perspective). After the sweeps, in both
+///   projections, unset pixels beside set ones (the mask's edge) and set
+///   pixels beside a nearer neighbour (a crest in front the samples
+///   stepped over) are searched on their own rays from their neighbours'
+///   hits; an orthographic pixel whose exact solve finds no crossing is
+///   left for that search rather than interpolated (not with `antialias`
+///   shading, whose sub-columns shade the silhouettes);
 /// * `step` (3.0; 1.0 with `coverage`): largest screen gap between
 ///   samples, pixels; `max_step` (4.0; 2.0 with `coverage`): largest step
 ///   along a sweep, in pixel footprints (step=1, max_step=2: the dense
