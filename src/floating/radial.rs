@@ -921,16 +921,20 @@ impl RowNeighbours<'_> {
         let n = out.len();
         let [sc, sl, sr, su, sd] = self.set.map(|x| &x[..n]);
         let [dc, dl, dr, du, dd] = self.depth.map(|x| &x[..n]);
+        // The nearest set neighbour's depth (+∞: none set); set pixels'
+        // depths are finite.
+        let key = |s: bool, z: f64| if s { z } else { f64::INFINITY };
         for m in 0..n {
+            let near = key(sl[m], dl[m])
+                .min(key(sr[m], dr[m]))
+                .min(key(su[m], du[m]).min(key(sd[m], dd[m])));
             let dk = dc[m];
-            let lim = dk - 4.0 * fp.at(dk);
-            let (l, r, u, d) = (sl[m] as u8, sr[m] as u8, su[m] as u8, sd[m] as u8);
-            let nearer = (l & (dl[m] < lim) as u8)
-                | (r & (dr[m] < lim) as u8)
-                | (u & (du[m] < lim) as u8)
-                | (d & (dd[m] < lim) as u8);
-            let s = sc[m] as u8;
-            out[m] = (s & nearer) | ((s ^ 1) & (l | r | u | d));
+            let lim = if sc[m] {
+                dk - 4.0 * fp.at(dk)
+            } else {
+                f64::INFINITY
+            };
+            out[m] = (near < lim) as u8;
         }
     }
 }
