@@ -15,6 +15,9 @@ fn filled<T: Copy + Send + Sync>(n: usize, x: T) -> Vec<T> {
         return vec![x; n];
     }
     let mut v = Vec::with_capacity(n);
+    // Huge pages behind it where the system grants them: the fill's faults
+    // then come 2 MiB at a time, not 4 KiB.
+    crate::scratch::advise_huge(v.as_ptr(), n);
     // Chunks filled by plain stores (a rayon collect writes element by
     // element through its consumer: several times the instructions).
     v.spare_capacity_mut()[..n]
@@ -32,11 +35,20 @@ fn filled_rgb(n: usize, rgb: [u8; 3]) -> Vec<u8> {
     }
     // Zeroed pages are mapped lazily: the colour fill is their first touch.
     let mut v = vec![0u8; 3 * n];
+    crate::scratch::advise_huge(v.as_ptr(), 3 * n);
     v.par_chunks_mut(3 << 12).for_each(|c| {
         for px in c.chunks_exact_mut(3) {
             px.copy_from_slice(&rgb);
         }
     });
+    v
+}
+
+/// n zeros (pages mapped lazily, on their first write), with huge pages
+/// behind them where the system grants them (see [`filled`]).
+fn zeros<T: Copy + Default + PartialEq>(n: usize) -> Vec<T> {
+    let v = vec![T::default(); n];
+    crate::scratch::advise_huge(v.as_ptr(), n);
     v
 }
 
@@ -147,9 +159,9 @@ impl Buffers {
             depth: outputs.depth.then(|| filled(n, f32::NAN)),
             normal: outputs.normal.then(|| filled(3 * n, f32::NAN)),
             uv: outputs.uv.then(|| filled(2 * n, f32::NAN)),
-            side: outputs.side.then(|| vec![0i8; n]),
-            mask: outputs.mask.then(|| vec![false; n]),
-            lines: outputs.lines.then(|| vec![0u8; n]),
+            side: outputs.side.then(|| zeros(n)),
+            mask: outputs.mask.then(|| zeros(n)),
+            lines: outputs.lines.then(|| zeros(n)),
             samples: 0,
             stats: Vec::new(),
         }
