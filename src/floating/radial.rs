@@ -924,7 +924,7 @@ impl RowNeighbours<'_> {
         // The nearest set neighbour's depth (+∞: none set); set pixels'
         // depths are finite.
         let key = |s: bool, z: f64| if s { z } else { f64::INFINITY };
-        for m in 0..n {
+        let flag = |m: usize| {
             let near = key(sl[m], dl[m])
                 .min(key(sr[m], dr[m]))
                 .min(key(su[m], du[m]).min(key(sd[m], dd[m])));
@@ -934,7 +934,28 @@ impl RowNeighbours<'_> {
             } else {
                 f64::INFINITY
             };
-            out[m] = (near < lim) as u8;
+            (near < lim) as u8
+        };
+        // Eight pixels at a time; where none of them or their neighbours is
+        // set (the background), their depths are not read.
+        let eight = |s: &[bool], m: usize| {
+            let b: &[bool; 8] = s[m..m + 8].try_into().expect("eight flags");
+            u64::from_le_bytes(b.map(u8::from))
+        };
+        let mut m = 0;
+        while m + 8 <= n {
+            let any = eight(sc, m) | eight(sl, m) | eight(sr, m) | eight(su, m) | eight(sd, m);
+            if any == 0 {
+                out[m..m + 8].fill(0);
+            } else {
+                for q in m..m + 8 {
+                    out[q] = flag(q);
+                }
+            }
+            m += 8;
+        }
+        for q in m..n {
+            out[q] = flag(q);
         }
     }
 }
