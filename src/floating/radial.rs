@@ -948,14 +948,14 @@ impl RowNeighbours<'_> {
             if any == 0 {
                 out[m..m + 8].fill(0);
             } else {
-                for q in m..m + 8 {
-                    out[q] = flag(q);
+                for (q, o) in out[m..m + 8].iter_mut().enumerate() {
+                    *o = flag(m + q);
                 }
             }
             m += 8;
         }
-        for q in m..n {
-            out[q] = flag(q);
+        for (q, o) in out[m..].iter_mut().enumerate() {
+            *o = flag(m + q);
         }
     }
 }
