@@ -308,15 +308,17 @@ pub fn render_floating_column(
         let mut set = crate::scratch::ScratchArray::<bool>::zeroed(n);
         let mut zs = crate::scratch::ScratchArray::<f64>::any(n);
         let mut covered = vec![0.0f32; if cov { n } else { 0 }];
-        let out = SharedOut::new(&mut buf, shading);
-        let out = if searched {
-            out.with_marks(&mut set, &mut zs, &mut covered)
-        } else {
-            out
-        };
-        let group = if plain { column::GROUP } else { 1 };
-        total = with_threads(opts.threads, || {
-            (0..width.div_ceil(group))
+        // (one pool for the columns and the searches after them)
+        let found;
+        (total, found) = with_threads(opts.threads, || -> Result<_> {
+            let out = SharedOut::new(&mut buf, shading);
+            let out = if searched {
+                out.with_marks(&mut set, &mut zs, &mut covered)
+            } else {
+                out
+            };
+            let group = if plain { column::GROUP } else { 1 };
+            let mut total = (0..width.div_ceil(group))
                 .into_par_iter()
                 .map(|g| {
                     cancel.check()?;
@@ -332,34 +334,38 @@ pub fn render_floating_column(
                 .try_reduce(ColumnStats::default, |mut a, b| {
                     a.add(&b);
                     Ok(a)
-                })
-        })??;
-        if searched {
+                })?;
             // A crest's top or a domain edge between the column's samples,
             // and a crest in front that the plane's samples step over: the
             // pixels beside set ones searched on their own rays (as in
             // perspective, see radial::edge_searches).
-            let found = with_threads(opts.threads, || {
-                let mut px = Vec::new();
-                let moved =
-                    radial::edge_searches(&ctx, (0.0, 0.0), &mut set, &mut zs, &mut px, &mut total);
-                px.extend(moved);
-                px
-            })?;
-            let out = SharedOut::new(&mut buf, shading);
-            for (k, p) in &found {
-                // With coverage, a pixel the column covers in part keeps
-                // that fraction (§6.4), its colour blended with it.
-                let f = if cov { covered[*k] as f64 } else { 1.0 };
-                // SAFETY: the columns are done; this thread alone writes.
-                // A found pixel is set.
-                unsafe {
-                    if f > 0.0 && f < 1.0 {
-                        let p = Pixel { cover: f, ..*p };
-                        out.put_with(*k, &p, Some(shade(&p, shading, true)));
-                    } else {
-                        out.put_set(*k, p);
-                    }
+            let mut found = Vec::new();
+            if searched {
+                let moved = radial::edge_searches(
+                    &ctx,
+                    (0.0, 0.0),
+                    &mut set,
+                    &mut zs,
+                    &mut found,
+                    &mut total,
+                );
+                found.extend(moved);
+            }
+            Ok((total, found))
+        })??;
+        let out = SharedOut::new(&mut buf, shading);
+        for (k, p) in &found {
+            // With coverage, a pixel the column covers in part keeps that
+            // fraction (§6.4), its colour blended with it.
+            let f = if cov { covered[*k] as f64 } else { 1.0 };
+            // SAFETY: the columns are done; this thread alone writes. A
+            // found pixel is set.
+            unsafe {
+                if f > 0.0 && f < 1.0 {
+                    let p = Pixel { cover: f, ..*p };
+                    out.put_with(*k, &p, Some(shade(&p, shading, true)));
+                } else {
+                    out.put_set(*k, p);
                 }
             }
         }
