@@ -46,7 +46,8 @@ pub struct ColumnStats {
     pub problems: u64,
     pub early_exit: u64,
     pub holes_filled: u64,
-    /// Perspective: pixels moved to a nearer sheet their ray meets first.
+    /// Pixels moved to a nearer sheet their ray meets first (the searches
+    /// after the sweeps, see `radial::edge_searches`).
     pub nearer: u64,
 }
 
@@ -494,13 +495,12 @@ async unsafe fn column_task(
         let (failed, evals) = super::refine::solve_with(ctx, &sw.jobs, out, &mut sc.solve);
         sw.stats.refine_evals += evals;
         sw.stats.refine_fail += failed.len() as u64;
-        for &slot in failed {
-            if ctx.searched {
-                // As in `solve_ortho`: the ray marched over its bracket
-                // (widened by eight pixels), else left for the searches.
-                let Some(j) = sw.jobs.iter().find(|j| j.slot == slot) else {
-                    continue;
-                };
+        if ctx.searched {
+            // As in `solve_ortho`: the ray marched over its bracket
+            // (widened by eight pixels), else left for the searches.
+            for &k in sc.solve.failed_jobs() {
+                let j = &sw.jobs[k as usize];
+                let slot = j.slot;
                 let side = out[slot].side;
                 let (lo, hi) = (j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp);
                 let (hit, n) = super::radial::march_ray(ctx, j.o, j.dir, lo, hi, j.fp, side);
@@ -520,7 +520,9 @@ async unsafe fn column_task(
                     }
                     None => out[slot].set = false,
                 }
-            } else if ctx.opts.shading == ShadingMode::Normal {
+            }
+        } else if ctx.opts.shading == ShadingMode::Normal {
+            for &slot in failed {
                 let (_, dir) = ctx.cam.ray(slot as f64, col);
                 out[slot].inten = ctx.shading.intensity(out[slot].n, -dir);
             }

@@ -217,6 +217,8 @@ pub fn render_floating_column(
         || outputs.uv
         || outputs.side
         || (outputs.needs_shading() && opts.shading == ShadingMode::Normal);
+    let aa = opts.antialias;
+    let shade_aa = aa > 1 && outputs.needs_shading();
     let ctx = Ctx {
         cam: &cam,
         frame,
@@ -226,11 +228,9 @@ pub fn render_floating_column(
         refine: opts.refine && wants,
         fallback: wants,
         // (see the orthographic pass below)
-        searched: !(cam.perspective || opts.antialias > 1 && outputs.needs_shading()),
+        searched: !cam.perspective && !shade_aa,
     };
     let mut buf = Buffers::new(width, height, outputs, shading.background);
-    let aa = opts.antialias;
-    let shade_aa = aa > 1 && outputs.needs_shading();
     let cov = opts.coverage;
     let geom = outputs.depth || outputs.normal || outputs.uv || outputs.side || outputs.mask;
     let mut total = ColumnStats::default();

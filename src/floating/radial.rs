@@ -938,13 +938,9 @@ impl RowNeighbours<'_> {
         };
         // Eight pixels at a time; where none of them or their neighbours is
         // set (the background), their depths are not read.
-        let eight = |s: &[bool], m: usize| {
-            let b: &[bool; 8] = s[m..m + 8].try_into().expect("eight flags");
-            u64::from_le_bytes(b.map(u8::from))
-        };
         let mut m = 0;
         while m + 8 <= n {
-            let any = eight(sc, m) | eight(sl, m) | eight(sr, m) | eight(su, m) | eight(sd, m);
+            let any = bytes8(sc, m) | bytes8(sl, m) | bytes8(sr, m) | bytes8(su, m) | bytes8(sd, m);
             if any == 0 {
                 out[m..m + 8].fill(0);
             } else {
@@ -981,8 +977,11 @@ pub(super) fn march_ray(
 /// many pixels.
 const GROW_ROUNDS: usize = 2;
 
-/// The searches on the pixels' own rays after the bins, where a pixel up to
-/// half a bin off its bin's plane may see what the plane does not:
+/// The searches on the pixels' own rays after the bins (perspective), where
+/// a pixel up to half a bin off its bin's plane may see what the plane does
+/// not, and after the columns (orthographic), where a crest's top or the
+/// domain's edge between a column's samples, or a crest in front that they
+/// step over, is missed the same way:
 /// - unset pixels next to set ones, on the mask's edge (a silhouette in the
 ///   plane, a crest or the domain's edge where it runs nearly along the
 ///   plane, can lie a pixel or two from the pixel's own): solved from their

@@ -158,6 +158,14 @@ pub struct SolveScratch {
     failed: Vec<usize>,
 }
 
+impl SolveScratch {
+    /// The jobs (indices) that failed in the last [`solve_with`], in the
+    /// order they failed.
+    pub(crate) fn failed_jobs(&self) -> &[u32] {
+        self.newton.failed()
+    }
+}
+
 /// Solve `jobs` (the generic sweep's pixels), updating `out[job.slot]` for
 /// each success; returns the slots that failed (left with their
 /// interpolated values; a view of `sc`) and the number of evaluations.
