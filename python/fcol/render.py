@@ -43,7 +43,8 @@ def render(
     texture is sampled at the pixel centre.
 
     Anti-aliasing (floating column, §6.4; rgb and intensity only — depth,
-    normal, uv, side and mask stay per pixel centre): ``antialias=k``
+    normal, uv, side and mask stay per pixel centre, equal to a render
+    without it): ``antialias=k``
     averages k sub-columns per pixel column (perspective views: k passes on
     sub-pixel rays in an n-rooks pattern — sub-column m at sub-row
     q·m mod k, q coprime to k near k/φ — so both directions are sampled);

@@ -228,7 +228,7 @@ pub fn render_floating_column(
         refine: opts.refine && wants,
         fallback: wants,
         // (see the orthographic pass below)
-        searched: !cam.perspective && !shade_aa,
+        searched: !cam.perspective,
     };
     let mut buf = Buffers::new(width, height, outputs, shading.background);
     let cov = opts.coverage;
@@ -299,48 +299,49 @@ pub fn render_floating_column(
         // Every column writes its pixels straight into the row-major
         // buffers (each pixel belongs to one column); a worker's columns
         // reuse one scratch (pixels, sweep and solve buffers).
-        // Plain renders: groups of columns whose sweeps share their batched
-        // evaluations (column::render_columns_direct), their set pixels
-        // marked for the searches at the mask's edge and the depth steps.
-        let plain = !shade_aa && !cov;
-        let searched = ctx.searched;
-        let n = if searched { width * height } else { 0 };
+        // Without coverage: groups of columns whose sweeps share their
+        // batched evaluations (column::render_columns_direct), their set
+        // pixels marked for the searches at the mask's edge and the depth
+        // steps. With supersampled shading the geometry is this same pass
+        // (the searches included, so that it equals a plain render's), and
+        // the colours come from the sub-columns after it.
+        let plain = !cov;
+        let n = width * height;
         let mut set = crate::scratch::ScratchArray::<bool>::zeroed(n);
         let mut zs = crate::scratch::ScratchArray::<f64>::any(n);
         let mut covered = vec![0.0f32; if cov { n } else { 0 }];
-        // (one pool for the columns and the searches after them)
+        let geometry_pass = !shade_aa || geom;
+        // (one pool for the columns, the searches and the sub-columns)
         let found;
         (total, found) = with_threads(opts.threads, || -> Result<_> {
-            let out = SharedOut::new(&mut buf, shading);
-            let out = if searched {
-                out.with_marks(&mut set, &mut zs, &mut covered)
-            } else {
-                out
-            };
-            let group = if plain { column::GROUP } else { 1 };
-            let mut total = (0..width.div_ceil(group))
-                .into_par_iter()
-                .map(|g| {
-                    cancel.check()?;
-                    let js = g * group..((g + 1) * group).min(width);
-                    Ok(with_scratch(js.len(), |scs| {
-                        if group == 1 {
-                            ortho_column(&ctx, js.start, &mut scs[0], &out, shade_aa, geom)
-                        } else {
-                            ortho_group(&ctx, js, scs, &out)
-                        }
-                    }))
-                })
-                .try_reduce(ColumnStats::default, |mut a, b| {
-                    a.add(&b);
-                    Ok(a)
-                })?;
-            // A crest's top or a domain edge between the column's samples,
-            // and a crest in front that the plane's samples step over: the
-            // pixels beside set ones searched on their own rays (as in
-            // perspective, see radial::edge_searches).
+            let mut total = ColumnStats::default();
             let mut found = Vec::new();
-            if searched {
+            if geometry_pass {
+                let out = SharedOut::new(&mut buf, shading);
+                let out = if shade_aa { out.geometry_only() } else { out };
+                let out = out.with_marks(&mut set, &mut zs, &mut covered);
+                let group = if plain { column::GROUP } else { 1 };
+                total = (0..width.div_ceil(group))
+                    .into_par_iter()
+                    .map(|g| {
+                        cancel.check()?;
+                        let js = g * group..((g + 1) * group).min(width);
+                        Ok(with_scratch(js.len(), |scs| {
+                            if group == 1 {
+                                ortho_column(&ctx, js.start, &mut scs[0], &out, false)
+                            } else {
+                                ortho_group(&ctx, js, scs, &out)
+                            }
+                        }))
+                    })
+                    .try_reduce(ColumnStats::default, |mut a, b| {
+                        a.add(&b);
+                        Ok(a)
+                    })?;
+                // A crest's top or a domain edge between the column's
+                // samples, and a crest in front that the plane's samples
+                // step over: the pixels beside set ones searched on their
+                // own rays (as in perspective, see radial::edge_searches).
                 let moved = radial::edge_searches(
                     &ctx,
                     (0.0, 0.0),
@@ -351,9 +352,33 @@ pub fn render_floating_column(
                 );
                 found.extend(moved);
             }
+            if shade_aa {
+                // §6.4: each column's sub-columns, their colours averaged
+                // (a failed exact solve there keeps its interpolation: the
+                // sub-columns are not searched).
+                let sub = Ctx {
+                    searched: false,
+                    ..ctx
+                };
+                let out = SharedOut::new(&mut buf, shading).colour_only();
+                let st = (0..width)
+                    .into_par_iter()
+                    .map(|j| {
+                        cancel.check()?;
+                        Ok(with_scratch(1, |scs| {
+                            ortho_column(&sub, j, &mut scs[0], &out, true)
+                        }))
+                    })
+                    .try_reduce(ColumnStats::default, |mut a, b| {
+                        a.add(&b);
+                        Ok(a)
+                    })?;
+                total.add(&st);
+            }
             Ok((total, found))
         })??;
         let out = SharedOut::new(&mut buf, shading);
+        let out = if shade_aa { out.geometry_only() } else { out };
         for (k, p) in &found {
             // With coverage, a pixel the column covers in part keeps that
             // fraction (§6.4), its colour blended with it.
@@ -382,15 +407,15 @@ pub fn render_floating_column(
     Ok(buf)
 }
 
-/// Render orthographic column j (with `shade_aa`, its sub-columns' colours
-/// averaged) and write it into `out`.
+/// Render orthographic column j and write it into `out`; with `shade_aa`,
+/// only its sub-columns' colours averaged (the geometry comes from a plain
+/// pass, see [`render_floating_column`]).
 fn ortho_column(
     ctx: &Ctx<'_>,
     j: usize,
     sc: &mut column::ColumnScratch,
     out: &SharedOut<'_>,
     shade_aa: bool,
-    geom: bool,
 ) -> ColumnStats {
     let (h, w) = (ctx.cam.height, ctx.cam.width);
     let (shading, aa, cov) = (ctx.shading, ctx.opts.antialias, ctx.opts.coverage);
@@ -432,7 +457,7 @@ fn ortho_column(
         }
         sc.sub = sub;
     }
-    if !shade_aa || geom {
+    if !shade_aa {
         // Plain renders: the exact solve writes its pixels straight into
         // the buffers.
         let direct = column::Direct { out, j, width: w };
@@ -661,6 +686,24 @@ impl<'a> SharedOut<'a> {
             shading,
             _buf: std::marker::PhantomData,
         }
+    }
+
+    /// Write the geometry buffers only (depth, normal, uv, side, mask): the
+    /// colours come from elsewhere (supersampled shading).
+    fn geometry_only(mut self) -> Self {
+        self.rgb = std::ptr::null_mut();
+        self.intensity = std::ptr::null_mut();
+        self
+    }
+
+    /// Write the colour buffers only (rgb, intensity).
+    fn colour_only(mut self) -> Self {
+        self.depth = std::ptr::null_mut();
+        self.normal = std::ptr::null_mut();
+        self.uv = std::ptr::null_mut();
+        self.side = std::ptr::null_mut();
+        self.mask = std::ptr::null_mut();
+        self
     }
 
     /// Also mark each written pixel set, with its depth, in `set` and `zs`,

@@ -628,7 +628,7 @@ fn column_buffers_carry_nothing_between_renders() {
             let out = SharedOut::new(&mut want, &sh);
             for j in 0..w {
                 let mut sc = column::ColumnScratch::default();
-                ortho_column(&ctx, j, &mut sc, &out, shade_aa, true);
+                ortho_column(&ctx, j, &mut sc, &out, shade_aa);
             }
         }
         for k in [1, 5, 11] {
@@ -639,8 +639,8 @@ fn column_buffers_carry_nothing_between_renders() {
                 let out = SharedOut::new(&mut got, &sh);
                 let junk = SharedOut::new(&mut waste, &sh);
                 for j in 0..w {
-                    ortho_column(&ctx_plain, (j + k) % w, &mut sc, &junk, false, true);
-                    ortho_column(&ctx, j, &mut sc, &out, shade_aa, true);
+                    ortho_column(&ctx_plain, (j + k) % w, &mut sc, &junk, false);
+                    ortho_column(&ctx, j, &mut sc, &out, shade_aa);
                 }
             }
             let what = if shade_aa { "antialias" } else { "coverage" };
