@@ -305,7 +305,6 @@ pub fn render_floating_column(
         // steps. With supersampled shading the geometry is this same pass
         // (the searches included, so that it equals a plain render's), and
         // the colours come from the sub-columns after it.
-        let plain = !cov;
         let n = width * height;
         let mut set = crate::scratch::ScratchArray::<bool>::zeroed(n);
         let mut zs = crate::scratch::ScratchArray::<f64>::any(n);
@@ -320,7 +319,7 @@ pub fn render_floating_column(
                 let out = SharedOut::new(&mut buf, shading);
                 let out = if shade_aa { out.geometry_only() } else { out };
                 let out = out.with_marks(&mut set, &mut zs, &mut covered);
-                let group = if plain { column::GROUP } else { 1 };
+                let group = if cov { 1 } else { column::GROUP };
                 total = (0..width.div_ceil(group))
                     .into_par_iter()
                     .map(|g| {
@@ -328,7 +327,7 @@ pub fn render_floating_column(
                         let js = g * group..((g + 1) * group).min(width);
                         Ok(with_scratch(js.len(), |scs| {
                             if group == 1 {
-                                ortho_column(&ctx, js.start, &mut scs[0], &out, false)
+                                ortho_column(&ctx, js.start, &mut scs[0], &out)
                             } else {
                                 ortho_group(&ctx, js, scs, &out)
                             }
@@ -366,7 +365,7 @@ pub fn render_floating_column(
                     .map(|j| {
                         cancel.check()?;
                         Ok(with_scratch(1, |scs| {
-                            ortho_column(&sub, j, &mut scs[0], &out, true)
+                            ortho_subcolumns(&sub, j, &mut scs[0], &out)
                         }))
                     })
                     .try_reduce(ColumnStats::default, |mut a, b| {
@@ -407,66 +406,33 @@ pub fn render_floating_column(
     Ok(buf)
 }
 
-/// Render orthographic column j and write it into `out`; with `shade_aa`,
-/// only its sub-columns' colours averaged (the geometry comes from a plain
-/// pass, see [`render_floating_column`]).
+/// Render orthographic column j (plain or with coverage) and write it into
+/// `out`.
 fn ortho_column(
     ctx: &Ctx<'_>,
     j: usize,
     sc: &mut column::ColumnScratch,
     out: &SharedOut<'_>,
-    shade_aa: bool,
 ) -> ColumnStats {
     let (h, w) = (ctx.cam.height, ctx.cam.width);
-    let (shading, aa, cov) = (ctx.shading, ctx.opts.antialias, ctx.opts.coverage);
-    let mut st = ColumnStats::default();
+    let (shading, cov) = (ctx.shading, ctx.opts.coverage);
     // A plain render leaves its pixels unset after each column (below) and
-    // reads only those it sets; supersampled and coverage renders also read
-    // the `cover` of unset pixels, so they start from cleared pixels (the
-    // buffer may come from a plain render's column).
+    // reads only those it sets; coverage renders also read the `cover` of
+    // unset pixels, so they start from cleared pixels (the buffer may come
+    // from a plain render's column).
     let mut centre = std::mem::take(&mut sc.centre);
-    if centre.len() != h || shade_aa || cov {
+    if centre.len() != h || cov {
         centre.clear();
         centre.resize(h, Pixel::default());
     }
-    // Shading accumulated over sub-columns: (r, g, b, I).
-    let mut acc = std::mem::take(&mut sc.acc);
-    if shade_aa {
-        acc.clear();
-        acc.resize(h, [0.0; 4]);
-        let mut sub = std::mem::take(&mut sc.sub);
-        for m in 0..aa {
-            let off = (m as f64 + 0.5) / aa as f64 - 0.5;
-            sub.clear();
-            sub.resize(h, Pixel::default());
-            st.add(&column::render_column_with(
-                ctx,
-                j as f64 + off,
-                &mut sub,
-                sc,
-            ));
-            for (a, p) in acc.iter_mut().zip(&sub) {
-                let c = shade(p, shading, cov);
-                for k in 0..3 {
-                    a[k] += c[k] / aa as f64;
-                }
-                if c[3].is_finite() {
-                    a[3] += c[3] / aa as f64;
-                }
-            }
-        }
-        sc.sub = sub;
-    }
-    if !shade_aa {
-        // Plain renders: the exact solve writes its pixels straight into
-        // the buffers.
-        let direct = column::Direct { out, j, width: w };
-        let direct = (!shade_aa && !cov).then_some(&direct);
-        // SAFETY: pixel (i, j) belongs to column j only.
-        st.add(&unsafe { column::render_column_direct(ctx, j as f64, &mut centre, sc, direct) });
-    }
+    // Plain renders: the exact solve writes its pixels straight into the
+    // buffers.
+    let direct = column::Direct { out, j, width: w };
+    let direct = (!cov).then_some(&direct);
+    // SAFETY: pixel (i, j) belongs to column j only.
+    let st = unsafe { column::render_column_direct(ctx, j as f64, &mut centre, sc, direct) };
     for (i, p) in centre.iter_mut().enumerate() {
-        if !shade_aa && !cov {
+        if !cov {
             if p.set {
                 // SAFETY: pixel (i, j) belongs to column j only.
                 unsafe { out.put_set(i * w + j, p) };
@@ -476,15 +442,9 @@ fn ortho_column(
             }
             continue;
         }
-        let a = if shade_aa {
-            Some(acc[i])
-        } else if cov && p.cover > 0.0 && (p.cover < 1.0 || !p.set) {
-            // A partly covered pixel (the others are written as without
-            // coverage).
-            Some(shade(p, shading, true))
-        } else {
-            None
-        };
+        // A partly covered pixel (the others are written as without
+        // coverage).
+        let a = (p.cover > 0.0 && (p.cover < 1.0 || !p.set)).then(|| shade(p, shading, true));
         if p.set || a.is_some() {
             // SAFETY: pixel (i, j) belongs to column j only.
             unsafe { out.put_with(i * w + j, p, a) };
@@ -492,6 +452,52 @@ fn ortho_column(
         *p = Pixel::default();
     }
     sc.centre = centre;
+    st
+}
+
+/// §6.4 supersampled shading of orthographic column j: its sub-columns'
+/// colours averaged and written into `out` (the geometry comes from a
+/// plain pass, see [`render_floating_column`]).
+fn ortho_subcolumns(
+    ctx: &Ctx<'_>,
+    j: usize,
+    sc: &mut column::ColumnScratch,
+    out: &SharedOut<'_>,
+) -> ColumnStats {
+    let (h, w) = (ctx.cam.height, ctx.cam.width);
+    let (shading, aa, cov) = (ctx.shading, ctx.opts.antialias, ctx.opts.coverage);
+    let mut st = ColumnStats::default();
+    // Shading accumulated over sub-columns: (r, g, b, I).
+    let mut acc = std::mem::take(&mut sc.acc);
+    acc.clear();
+    acc.resize(h, [0.0; 4]);
+    let mut sub = std::mem::take(&mut sc.sub);
+    for m in 0..aa {
+        let off = (m as f64 + 0.5) / aa as f64 - 0.5;
+        sub.clear();
+        sub.resize(h, Pixel::default());
+        st.add(&column::render_column_with(
+            ctx,
+            j as f64 + off,
+            &mut sub,
+            sc,
+        ));
+        for (a, p) in acc.iter_mut().zip(&sub) {
+            let c = shade(p, shading, cov);
+            for k in 0..3 {
+                a[k] += c[k] / aa as f64;
+            }
+            if c[3].is_finite() {
+                a[3] += c[3] / aa as f64;
+            }
+        }
+    }
+    let unset = Pixel::default();
+    for (i, a) in acc.iter().enumerate() {
+        // SAFETY: pixel (i, j) belongs to column j only.
+        unsafe { out.put_with(i * w + j, &unset, Some(*a)) };
+    }
+    sc.sub = sub;
     sc.acc = acc;
     st
 }

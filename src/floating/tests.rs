@@ -593,6 +593,20 @@ fn column_buffers_carry_nothing_between_renders() {
         refine: false,
         ..Default::default()
     };
+    // The column a render of these options runs.
+    fn ortho_or_sub(
+        ctx: &Ctx<'_>,
+        j: usize,
+        sc: &mut column::ColumnScratch,
+        out: &SharedOut<'_>,
+        shade_aa: bool,
+    ) -> ColumnStats {
+        if shade_aa {
+            ortho_subcolumns(ctx, j, sc, out)
+        } else {
+            ortho_column(ctx, j, sc, out)
+        }
+    }
     fn ctx_of<'a>(
         cam: &'a Camera,
         f: &'a dyn HeightField,
@@ -628,7 +642,7 @@ fn column_buffers_carry_nothing_between_renders() {
             let out = SharedOut::new(&mut want, &sh);
             for j in 0..w {
                 let mut sc = column::ColumnScratch::default();
-                ortho_column(&ctx, j, &mut sc, &out, shade_aa);
+                ortho_or_sub(&ctx, j, &mut sc, &out, shade_aa);
             }
         }
         for k in [1, 5, 11] {
@@ -639,8 +653,8 @@ fn column_buffers_carry_nothing_between_renders() {
                 let out = SharedOut::new(&mut got, &sh);
                 let junk = SharedOut::new(&mut waste, &sh);
                 for j in 0..w {
-                    ortho_column(&ctx_plain, (j + k) % w, &mut sc, &junk, false);
-                    ortho_column(&ctx, j, &mut sc, &out, shade_aa);
+                    ortho_column(&ctx_plain, (j + k) % w, &mut sc, &junk);
+                    ortho_or_sub(&ctx, j, &mut sc, &out, shade_aa);
                 }
             }
             let what = if shade_aa { "antialias" } else { "coverage" };
