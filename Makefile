@@ -21,7 +21,8 @@ $(PY):
 $(STAMP): pyproject.toml | $(PY)
 	$(PIP) install --quiet "maturin>=1.9.4,<2" "numpy>=1.24" \
 	    "pytest>=8" "hypothesis>=6" "scikit-image>=0.22" "trimesh>=4" \
-	    "embreex>=2.17" "openimageio>=2.5" "matplotlib>=3.8" "scipy>=1.11" "mypy>=1.10" "mpmath>=1.3"
+	    "embreex>=2.17" "openimageio>=2.5" "matplotlib>=3.8" "scipy>=1.11" "mypy>=1.10" "mpmath>=1.3" \
+	    "threadpoolctl>=3.1"
 	touch $(STAMP)
 
 # Release build (lto, codegen-units = 1) installed into .venv.

@@ -246,6 +246,26 @@ def test_step_constant_nan_and_scales():
         assert 200 < img.mask.sum() < 1200 and np.isfinite(img.depth[img.mask]).all()
 
 
+def test_bench_times_with_numpy_blas_on_one_thread():
+    """The bench and the demo time every method with NumPy's BLAS limited
+    to one thread (its idle workers would busy-wait on the cores after each
+    matrix product), and give the thread count back afterwards."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from fcol.bench import quiet_blas
+
+    def blas_threads():
+        return [i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"]
+
+    np.ones((4, 4)) @ np.ones((4, 4))  # (NumPy's BLAS loaded)
+    before = blas_threads()
+    if not before:
+        pytest.skip("NumPy reports no BLAS library")
+    with quiet_blas() as line:
+        assert blas_threads() == [1] * len(before)
+        assert "limited to one thread" in line
+    assert blas_threads() == before
+
+
 @pytest.mark.parametrize("vname", ["ortho", "persp"])
 def test_lean_mesh_baseline_is_a_true_mesh_cast(vname):
     """The bench's lean mesh baseline (embreex called directly, float32)

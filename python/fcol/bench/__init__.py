@@ -7,9 +7,28 @@ plot. Speed is measured here, never in tests."""
 
 from __future__ import annotations
 
+import contextlib
 import statistics
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
+
+
+@contextlib.contextmanager
+def quiet_blas() -> Iterator[str]:
+    """NumPy's BLAS limited to one thread while timing (yields a line that
+    says whether it could be). OpenBLAS's worker threads busy-wait for a
+    while after each matrix product (about 0.1-0.2 s here) and take the
+    cores a multi-threaded method is timed on: a render right after a
+    product can take twice as long. The limit (threadpoolctl) makes the
+    workers sleep, for every method timed alike; the baselines' own BLAS
+    calls are small products (a depth per hit), single-threaded as fast."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        yield "BLAS threads not limited (threadpoolctl not installed): timings may vary after matrix products"
+        return
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield "BLAS limited to one thread while timing (threadpoolctl)"
 
 
 def median_time(fn: Callable[[], Any], repeat: int = 7, min_time: float = 0.05) -> float:

@@ -28,11 +28,17 @@ def main(argv: list[str] | None = None) -> int:
         if unknown:
             ap.error(f"unknown sections {sorted(unknown)}; choose from {names}")
         names = [n for n in names if n in args.sections]
-    for name in names:
-        mod = importlib.import_module(f"fcol.bench.{name}")
-        rows = mod.run(out, args.quick)
-        if not rows:
-            continue
+    with fcol.bench.quiet_blas() as blas:
+        print(blas)
+        for name in names:
+            _section(name, out, args.quick)
+    return 0
+
+
+def _section(name: str, out: Path, quick: bool) -> None:
+    mod = importlib.import_module(f"fcol.bench.{name}")
+    rows = mod.run(out, quick)
+    if rows:
         cols = list(dict.fromkeys(k for r in rows for k in r))
         fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)  # noqa: E731
         widths = {c: max(len(c), *(len(fmt(r.get(c, ""))) for r in rows)) for c in cols}
@@ -42,7 +48,6 @@ def main(argv: list[str] | None = None) -> int:
         print("\n".join(lines))
         # the same table in the output folder, beside the section's plots
         (out / f"{name}.txt").write_text("\n".join(lines) + "\n")
-    return 0
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import fcol.demo
+from fcol.bench import quiet_blas
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,9 +26,11 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(f"unknown sections {sorted(unknown)}; choose from {names}")
         names = [n for n in names if n in args.sections]
     rows: list[dict[str, object]] = []
-    for name in names:
-        mod = importlib.import_module(f"fcol.demo.{name}")
-        rows.extend(mod.gallery(out))
+    # (the timings printed as the bench takes them, see fcol.bench.quiet_blas)
+    with quiet_blas():
+        for name in names:
+            mod = importlib.import_module(f"fcol.demo.{name}")
+            rows.extend(mod.gallery(out))
     cols = ["section", "file", "size", "ms", "samples", "note"]
     widths = {c: max(len(c), *(len(str(r.get(c, ""))) for r in rows)) if rows else len(c) for c in cols}
     print("  ".join(c.ljust(widths[c]) for c in cols))
