@@ -4,8 +4,11 @@
 //! with keys refine, step, max_step, bin_width, tol (`refine_tol`), outs (comma-separated buffers) (the options
 //! of `fcol.render`),
 //! hash=1 to print a digest of the buffers (to compare outputs across builds),
-//! height_bound=0 to sweep without the height bound's early exit, el, az and dist to
-//! change the view's elevation, azimuth and (perspective) distance
+//! height_bound=0 to sweep without the height bound's early exit, skip=0 to
+//! sweep without stepping over stretches outside the picture, el, az and dist to
+//! change the view's elevation, azimuth and (perspective) distance, vh
+//! (orthographic view height) and fov (perspective) to zoom, tx, ty, tz for
+//! the target
 //! and stats=1 to print the render's counters (with evaluations per pixel seen).
 
 use _fcol::camera::Projection;
@@ -27,6 +30,8 @@ fn main() {
     let mut want_hash = false;
     let mut want_stats = false;
     let (mut el, mut az, mut dist): (Option<f64>, Option<f64>, Option<f64>) = (None, None, None);
+    let (mut vh, mut fov): (Option<f64>, Option<f64>) = (None, None);
+    let mut target = DVec3::ZERO;
     let mut names = vec![
         "rgb".to_string(),
         "depth".into(),
@@ -44,6 +49,12 @@ fn main() {
             "hash" => want_hash = v == "1" || v == "true",
             "stats" => want_stats = v == "1" || v == "true",
             "height_bound" => o.height_bound = v == "1" || v == "true",
+            "skip" => o.skip_outside = v == "1" || v == "true",
+            "vh" => vh = Some(v.parse().unwrap()),
+            "fov" => fov = Some(v.parse().unwrap()),
+            "tx" => target.x = v.parse().unwrap(),
+            "ty" => target.y = v.parse().unwrap(),
+            "tz" => target.z = v.parse().unwrap(),
             "el" => el = Some(v.parse().unwrap()),
             "az" => az = Some(v.parse().unwrap()),
             "dist" => dist = Some(v.parse().unwrap()),
@@ -78,6 +89,13 @@ fn main() {
     if let (Some(x), Projection::Perspective { distance, .. }) = (dist, &mut view.projection) {
         *distance = x;
     }
+    if let (Some(x), Projection::Perspective { fov: f, .. }) = (fov, &mut view.projection) {
+        *f = x;
+    }
+    if let (Some(x), Projection::Orthographic { view_height }) = (vh, &mut view.projection) {
+        *view_height = x;
+    }
+    view.target = target;
     let dom = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
     let f = ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, dom).unwrap();
     let outs = Outputs::from_names(&names.iter().map(String::as_str).collect::<Vec<_>>()).unwrap();

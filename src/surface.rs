@@ -100,6 +100,17 @@ pub trait HeightField: Sync {
         None
     }
 
+    /// Bounds (lo, hi) of every finite value of f over the part of the
+    /// domain in [u0, u1] × [v0, v1] (lo > hi: no finite value there;
+    /// None: unknown): by default the global bound of
+    /// [`Self::height_bound`] with the local maximum of
+    /// [`Self::height_max_in`]; expressions bound the box itself.
+    fn height_range_in(&self, u0: f64, u1: f64, v0: f64, v1: f64) -> Option<(f64, f64)> {
+        let (lo, hi) = self.height_bound()?;
+        let hi = self.height_max_in(u0, u1, v0, v1).map_or(hi, |m| m.min(hi));
+        Some((lo, hi))
+    }
+
     /// Evaluate f alone at one point.
     fn eval_value(&self, u: f64, v: f64) -> f64 {
         let mut out = [0.0];

@@ -187,6 +187,23 @@ pub struct Compiled {
     sources: Vec<String>,
 }
 
+/// An expression's value DAG with its parameters bound, for interval
+/// bounds over boxes ([`Compiled::value_bounder`]).
+#[derive(Debug)]
+pub struct ValueBound {
+    g: Graph,
+    root: Id,
+}
+
+impl ValueBound {
+    /// Bounds of the value over the box `u` × `v`: every non-NaN value
+    /// the evaluation returns there lies inside (empty: NaN everywhere
+    /// there).
+    pub fn over(&self, u: (f64, f64), v: (f64, f64)) -> Iv {
+        interval::bound(&self.g, self.root, u, v)
+    }
+}
+
 impl Compiled {
     /// Parse and differentiate `exprs`, with the named parameters `params`
     /// (besides `t`). Errors point at the column of the offending expression.
@@ -274,9 +291,15 @@ impl Compiled {
     /// value the evaluation returns there lies inside. Empty: NaN
     /// everywhere there.
     pub fn value_bound(&self, values: &[f64], which: usize, u: (f64, f64), v: (f64, f64)) -> Iv {
+        self.value_bounder(values, which).over(u, v)
+    }
+
+    /// Expression `which`'s value with the parameters bound to `values`,
+    /// kept for bounds over many boxes ([`ValueBound::over`]).
+    pub fn value_bounder(&self, values: &[f64], which: usize) -> ValueBound {
         assert_eq!(values.len(), self.params.len());
         let (g, roots) = self.graph.bind(values, &[self.roots[which][0]]);
-        interval::bound(&g, roots[0], u, v)
+        ValueBound { g, root: roots[0] }
     }
 
     /// A program computing, for each expression in turn, its value and then

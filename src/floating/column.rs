@@ -182,6 +182,14 @@ const MAX_STEPS: usize = 4_000_000;
 /// Fraction of the allowed row gap the sweep's step aims at.
 pub(super) const AIM: f64 = 0.85;
 
+/// Rows beyond the image's first and last (clamped to by the sweep) within
+/// which a sample counts as on the image for [`Sweep::invisible_run`].
+const SKIP_MARGIN: f64 = 4.0;
+
+/// The shortest stretch [`Sweep::invisible_run`] tries, in largest steps;
+/// after a try that fails the sweep goes this far before the next.
+const SKIP_MIN: f64 = 8.0;
+
 struct Sweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
     sampler: Sampler<'a>,
@@ -975,6 +983,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let mut barrier: Option<(f64, f64)> = None;
         let mut steps = 0usize;
         let min_frac = 1e-6;
+        // Stretches outside the image stepped over at once (orthographic
+        // columns): not before this τ again after a try that failed.
+        let skips = !fr.persp && opts.skip_outside;
+        let mut no_skip_until = f64::NEG_INFINITY;
         while tau < len && steps < MAX_STEPS {
             steps += 1;
             let fp = if has_prev {
@@ -983,10 +995,29 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 fr.footprint(self.z_guess(tt(tau)))
             };
             let cap = opts.max_step() * fp;
+            let limit = match barrier {
+                Some((b, _)) if has_prev => b,
+                _ => len,
+            };
+            let mut skip = 0.0;
+            let hf = self.h as f64;
+            // (on the picture, the common case: one test)
+            if has_prev
+                && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN)
+                && skips
+                && tau >= no_skip_until
+            {
+                skip = self.invisible_run(tt, tau, limit, cap);
+                if skip <= cap {
+                    no_skip_until = tau + SKIP_MIN * cap;
+                }
+            }
             // The step aims a little under the row gap allowed (so that
             // few steps are retried), and any step up to the allowed gap
             // is taken from the look-ahead.
-            let (mut h, mut h_max) = if !has_prev {
+            let (mut h, mut h_max) = if skip > cap {
+                (skip, skip)
+            } else if !has_prev {
                 (cap, cap)
             } else if self.cov.depth(self.clamp_row(pa.rho)) > 2.0 * step_px {
                 // Deep inside the covered rows nothing can show before the
@@ -999,10 +1030,6 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 } else {
                     (cap, cap)
                 }
-            };
-            let limit = match barrier {
-                Some((b, _)) if has_prev => b,
-                _ => len,
             };
             let mut halvings = 0;
             loop {
@@ -1095,6 +1122,56 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 return;
             }
         }
+    }
+
+    /// The longest step from τ (to at most `limit`; tried at
+    /// [`SKIP_MIN`]·`cap` and doublings of it) over which the column's curve
+    /// stays wholly above or wholly below the image ([`Self::invisible`]);
+    /// 0 if the shortest try fails. The samples of such a stretch cover no
+    /// row of the image, so stepping over it changes no pixel (orthographic
+    /// columns: their line in (u, v) is fixed).
+    fn invisible_run(&self, tt: impl Fn(f64) -> f64, tau: f64, limit: f64, cap: f64) -> f64 {
+        let mut best = 0.0;
+        let mut l = SKIP_MIN * cap;
+        loop {
+            let l_try = l.min(limit - tau);
+            if l_try <= best || !self.invisible(tt(tau), tt(tau + l_try)) {
+                return best;
+            }
+            best = l_try;
+            l *= 2.0;
+        }
+    }
+
+    /// Is the column's curve between t = ta and tb wholly above or wholly
+    /// below the image's rows ([`SKIP_MARGIN`] rows out)? By the surface's
+    /// bounds over the stretch's (u, v) box: the camera's y = t·up_t +
+    /// w'·up_w is bilinear in (t, w'), so its range there is taken at the
+    /// corners of [ta, tb] × [w'_lo, w'_hi].
+    fn invisible(&self, ta: f64, tb: f64) -> bool {
+        let fr = &self.ctx.frame;
+        let s0 = self.sampler.line.s0;
+        let (p, q) = (fr.uv(s0, ta), fr.uv(s0, tb));
+        let Some((lo, hi)) =
+            self.ctx
+                .field
+                .height_range_in(p.x.min(q.x), p.x.max(q.x), p.y.min(q.y), p.y.max(q.y))
+        else {
+            return false;
+        };
+        if lo > hi {
+            // No finite value there: nothing to see.
+            return true;
+        }
+        if lo.is_nan() || hi.is_nan() {
+            return false;
+        }
+        let (wl, wh) = ((lo - fr.origin.z) * fr.up_w, (hi - fr.origin.z) * fr.up_w);
+        let (ya, yb) = (ta * fr.up_t, tb * fr.up_t);
+        let (y0, y1) = (ya.min(yb) + wl.min(wh), ya.max(yb) + wl.max(wh));
+        // (rows grow downwards: the highest y is the smallest row)
+        let (r0, r1) = (fr.row(y1, 1.0), fr.row(y0, 1.0));
+        r1 < -SKIP_MARGIN || r0 > self.h as f64 - 1.0 + SKIP_MARGIN
     }
 
     /// Does the curve stay inside the covered rows between a and b? Both

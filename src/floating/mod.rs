@@ -73,6 +73,13 @@ pub struct FloatingOptions {
     /// early exit, beyond a full column). The picture is the same either
     /// way; only samples are saved.
     pub height_bound: bool,
+    /// Step at once over a stretch of a column or plane that the surface's
+    /// bounds over it ([`crate::surface::HeightField::height_range_in`])
+    /// keep wholly below or above the picture (zoomed views: most of each
+    /// line lies in front of the picture). The samples after such a
+    /// stretch move, so pixels may differ within the exact solve's
+    /// tolerance from a sweep without it.
+    pub skip_outside: bool,
     /// Perspective: the widest azimuth bin, in pixels across at the most
     /// sensitive pixel (a pixel lies up to half of it off its bin's
     /// vertical plane). None: 1.25 with the exact solve, 1 without it or
@@ -95,6 +102,7 @@ impl Default for FloatingOptions {
             planes: 80,
             threads: None,
             height_bound: true,
+            skip_outside: true,
             bin_width: None,
         }
     }

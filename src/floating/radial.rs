@@ -989,6 +989,14 @@ pub(super) fn march_ray(
     (hit, sw.stats.refine_evals)
 }
 
+/// Units of `rho` (about pixels) beyond a bin's rays within which a sample
+/// counts as among them for [`RadialSweep::invisible_run`].
+const SKIP_MARGIN: f64 = 4.0;
+
+/// The shortest stretch [`RadialSweep::invisible_run`] tries, in largest
+/// steps; after a try that fails the sweep goes this far before the next.
+const SKIP_MIN: f64 = 8.0;
+
 /// Rounds of [`edge_searches`] on the mask's edge: it grows by up to this
 /// many pixels.
 const GROW_ROUNDS: usize = 2;
@@ -1745,6 +1753,14 @@ struct RunState {
     zb: f64,
     /// Waiting for the sample at the start of the sweep.
     first: bool,
+    /// Stretches outside the rays stepped over at once
+    /// ([`RadialSweep::invisible_run`]), not before this ρ again after a
+    /// try that failed.
+    skips: bool,
+    no_skip_until: f64,
+    /// The current step is such a stretch: its candidate lies in it, so
+    /// its gap to the previous sample is no reason to retry.
+    skipping: bool,
 }
 
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
@@ -2549,6 +2565,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.r1 = r1;
         st.steps = 0;
         st.first = true;
+        st.skips = ctx.opts.skip_outside;
+        st.no_skip_until = f64::NEG_INFINITY;
         self.ahead.ts.clear();
         self.ahead.ts.push(r0);
         true
@@ -2587,7 +2605,19 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 // (the elevation rate in local pixels)
                 let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
-                if !deep && r > 0.0 && r.is_finite() {
+                let outside = !(a.rho >= st.th_lo - SKIP_MARGIN && a.rho <= st.th_hi + SKIP_MARGIN);
+                let skip = if st.skips && outside && st.rho >= st.no_skip_until {
+                    self.invisible_run(st, cap)
+                } else {
+                    0.0
+                };
+                if outside && skip <= cap {
+                    st.no_skip_until = st.rho + SKIP_MIN * cap;
+                }
+                st.skipping = skip > cap;
+                if st.skipping {
+                    (skip, skip)
+                } else if !deep && r > 0.0 && r.is_finite() {
                     (
                         (opts.step() / r).min(cap),
                         (super::column::AIM * opts.step() / r).min(cap),
@@ -2597,6 +2627,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 }
             }
             None => {
+                st.skipping = false;
                 let cap = opts.max_step() * (st.rho.max(1e-9 * scale)) / ctx.cam.focal;
                 (cap, cap)
             }
@@ -2605,6 +2636,63 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.hstep = hstep;
         st.halvings = 0;
         true
+    }
+
+    /// The longest step from ρ = `st.rho` (to at most the sweep's end;
+    /// tried at [`SKIP_MIN`]·`cap` and doublings of it) over which the
+    /// plane's curve stays wholly below or wholly above the bin's rays
+    /// ([`Self::invisible`]); 0 if the shortest try fails. Such a stretch's
+    /// samples cover no ray, so stepping over it hides and shows nothing
+    /// (a telephoto view: most of each plane lies in front of the picture,
+    /// below its rays).
+    fn invisible_run(&self, st: &RunState, cap: f64) -> f64 {
+        let mut best = 0.0;
+        let mut l = SKIP_MIN * cap;
+        loop {
+            let l_try = l.min(st.r1 - st.rho);
+            if l_try <= best || !self.invisible(st, st.rho, st.rho + l_try) {
+                return best;
+            }
+            best = l_try;
+            l *= 2.0;
+        }
+    }
+
+    /// Is the plane's curve over ρ ∈ [ra, rb] wholly below or wholly above
+    /// the bin's rays ([`SKIP_MARGIN`] units of `rho` out)? By the
+    /// surface's bounds over the stretch's (u, v) box (its ends clamped to
+    /// the domain, as the samples are): the elevation of height w' at
+    /// distance ρ rises with w' and falls with ρ above the eye (rises
+    /// below it), so its extremes lie at the box's corners.
+    fn invisible(&self, st: &RunState, ra: f64, rb: f64) -> bool {
+        let ctx = self.ctx;
+        let e = ctx.cam.eye;
+        let d = ctx.frame.domain;
+        let at = |r: f64| {
+            let p = DVec2::new(e.x, e.y) + r * self.eh;
+            DVec2::new(p.x.clamp(d.u0, d.u1), p.y.clamp(d.v0, d.v1))
+        };
+        let (pa, pb) = (at(ra), at(rb));
+        let pad = 1e-9 * (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
+        let Some((lo, hi)) = ctx.field.height_range_in(
+            pa.x.min(pb.x) - pad,
+            pa.x.max(pb.x) + pad,
+            pa.y.min(pb.y) - pad,
+            pa.y.max(pb.y) + pad,
+        ) else {
+            return false;
+        };
+        if lo > hi {
+            // No finite value there: nothing to see.
+            return true;
+        }
+        if lo.is_nan() || hi.is_nan() {
+            return false;
+        }
+        let (wl, wh) = (lo - e.z, hi - e.z);
+        let top = bound_margin(self.ppr * elevation(wh, ra).max(elevation(wh, rb)));
+        let bottom = -bound_margin(-self.ppr * elevation(wl, ra).min(elevation(wl, rb)));
+        top < st.th_lo - SKIP_MARGIN || bottom > st.th_hi + SKIP_MARGIN
     }
 
     /// The highest elevation (units of `rho`) that a span after the
@@ -2725,7 +2813,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     // The gap in local pixels (the larger rate of its ends).
                     let rb = self.rate.at(b.rho);
                     let gap = (b.rho - a.rho).abs() * st.rate.max(rb);
-                    let hidden = gap > opts.step() && self.hidden(a, b);
+                    let hidden = gap > opts.step() && (st.skipping || self.hidden(a, b));
                     if gap > opts.step()
                         && !hidden
                         && st.halvings < 40

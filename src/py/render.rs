@@ -153,7 +153,11 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   point further on can rise into an elevation of the plane's pixels
 ///   that is not already covered — a landscape seen from a low eye stops
 ///   at the first ridge that hides the rest. The picture is identical
-///   either way (`False` sweeps every plane to the domain's end);
+///   either way (`False` sweeps every plane to the domain's end). (Apart
+///   from this option, a stretch of a column or plane that the surface's
+///   bounds over it keep wholly below or above the picture is always
+///   stepped over at once: a zoomed view does not sweep the whole domain
+///   at its tiny pixel's steps);
 /// * `bin_width` (perspective; 1.25 with `refine`, else 1.0, and 1.0 with
 ///   `coverage`): the widest azimuth bin, in pixels across at the most
 ///   sensitive pixel — each bin sweeps one vertical plane through the eye

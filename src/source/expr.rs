@@ -2,7 +2,7 @@
 //! exact derivatives from the expression engine ([`crate::expr`]).
 
 use crate::error::{FcolError, Result};
-use crate::expr::{Compiled, Program};
+use crate::expr::{Compiled, Program, ValueBound};
 use crate::surface::{Domain, HeightField, HeightSample, ParamSample, ParametricSurface};
 use glam::DVec3;
 use std::sync::Arc;
@@ -157,6 +157,8 @@ pub struct ExprHeight {
     value: Arc<Program>,
     /// Interval bounds of f over the domain (None: unbounded).
     range: Option<(f64, f64)>,
+    /// f's value DAG, for bounds over parts of the domain.
+    bounder: Arc<ValueBound>,
 }
 
 impl ExprHeight {
@@ -173,6 +175,7 @@ impl ExprHeight {
             grad: bound.program(1),
             value: bound.program(0),
             range: value_range(&bound, domain),
+            bounder: Arc::new(bound.compiled.value_bounder(&bound.values, 0)),
             bound,
             domain,
         }
@@ -220,6 +223,16 @@ impl HeightField for ExprHeight {
     }
     fn height_bound(&self) -> Option<(f64, f64)> {
         self.range
+    }
+    fn height_range_in(&self, u0: f64, u1: f64, v0: f64, v1: f64) -> Option<(f64, f64)> {
+        // (widened as the domain's bound is, for points a rounding outside)
+        let d = self.domain;
+        let (pu, pv) = (1e-9 * (d.u1 - d.u0), 1e-9 * (d.v1 - d.v0));
+        let iv = self.bounder.over((u0 - pu, u1 + pu), (v0 - pv, v1 + pv));
+        if iv.is_empty() {
+            return Some((f64::INFINITY, f64::NEG_INFINITY));
+        }
+        (iv.lo.is_finite() && iv.hi.is_finite()).then_some((iv.lo, iv.hi))
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         // Tiny batches take the one-point path (same results, bit for bit).
@@ -379,6 +392,43 @@ impl ParametricSurface for ExprParametric {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The bounds over parts of the domain that the sweeps step over
+    /// stretches by: every finite value sampled in a box lies inside its
+    /// bound, and small boxes get bounds near the values' own range (far
+    /// tighter than the domain's).
+    #[test]
+    fn local_bounds_hold_and_tighten() {
+        let d = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
+        let mut rnd = crate::test_rng::uniform(11);
+        for src in [
+            "3*sin(u*cos(v))",
+            "exp(-(u*u + v*v)) + 0.1*u",
+            "log(u*u + v*v)",
+            "sqrt(u) + v",
+        ] {
+            let h = ExprHeight::new(src, &[], 0.0, d).unwrap();
+            for size in [10.0, 1.0, 0.01] {
+                for _ in 0..50 {
+                    let (u0, v0) = (-5.0 + (10.0 - size) * rnd(), -5.0 + (10.0 - size) * rnd());
+                    let (u1, v1) = (u0 + size * rnd(), v0 + size * rnd());
+                    let Some((lo, hi)) = h.height_range_in(u0, u1, v0, v1) else {
+                        continue;
+                    };
+                    for _ in 0..40 {
+                        let f = h.eval(u0 + (u1 - u0) * rnd(), v0 + (v1 - v0) * rnd()).f;
+                        if f.is_finite() {
+                            assert!(lo <= f && f <= hi, "{src}: {f} outside [{lo}, {hi}]");
+                        }
+                    }
+                    if size == 0.01 && src.starts_with('3') {
+                        // (|∇f| ≤ 15 here: a box 0.01 wide spans at most 0.3)
+                        assert!(hi - lo < 0.5, "{src}: [{lo}, {hi}] over a box of {size}");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn batch_and_point_paths_agree_bit_for_bit() {

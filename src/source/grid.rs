@@ -94,8 +94,9 @@ pub struct HeightGrid {
     /// Bounds of the interpolant (see [`HeightGrid::value_range`]).
     range: Option<(f64, f64)>,
     /// Upper bounds of the interpolant over blocks of cells (see
-    /// [`MaxPyramid`]).
+    /// [`MaxPyramid`]), and upper bounds of its negative (lower bounds).
     maxes: MaxPyramid,
+    neg_mins: MaxPyramid,
 }
 
 /// Level k holds, for each block of 2^k × 2^k cells, an upper bound of the
@@ -109,12 +110,30 @@ struct MaxPyramid {
 }
 
 impl MaxPyramid {
+    /// The pyramid over the cells' bounds `base` (`ny` × `nx`, row-major).
+    fn build(ny: usize, nx: usize, base: Vec<f64>) -> Self {
+        let mut levels = vec![(ny, nx, base)];
+        while levels.last().is_some_and(|(h, w, _)| *h > 1 || *w > 1) {
+            let (h, w, m) = levels.last().expect("a level");
+            let (h2, w2) = (h.div_ceil(2), w.div_ceil(2));
+            let mut up = vec![f64::NEG_INFINITY; h2 * w2];
+            for i in 0..*h {
+                for j in 0..*w {
+                    let x = &mut up[(i / 2) * w2 + j / 2];
+                    *x = x.max(m[i * w + j]);
+                }
+            }
+            levels.push((h2, w2, up));
+        }
+        MaxPyramid { levels }
+    }
+
     /// The bound over cells [i0, i1] × [j0, j1] (inclusive, rows × columns).
     fn max(&self, i0: usize, i1: usize, j0: usize, j1: usize) -> f64 {
-        // The lowest level at which the range spans at most two blocks
-        // along each axis.
+        // The lowest level at which the range spans at most four blocks
+        // along each axis (at most 16 look-ups).
         let mut k = 0;
-        while k + 1 < self.levels.len() && ((i1 >> k) - (i0 >> k) > 1 || (j1 >> k) - (j0 >> k) > 1)
+        while k + 1 < self.levels.len() && ((i1 >> k) - (i0 >> k) > 3 || (j1 >> k) - (j0 >> k) > 3)
         {
             k += 1;
         }
@@ -220,12 +239,13 @@ impl HeightGrid {
             domain,
             range: None,
             maxes: MaxPyramid::default(),
+            neg_mins: MaxPyramid::default(),
         };
         if interp == Interpolation::Bicubic {
             g.build_ext();
         }
         g.range = g.value_range();
-        g.maxes = g.max_pyramid();
+        (g.maxes, g.neg_mins) = g.bound_pyramids();
         Ok(g)
     }
 
@@ -401,9 +421,12 @@ impl HeightGrid {
         (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
     }
 
-    fn max_pyramid(&self) -> MaxPyramid {
+    /// The pyramids of the interpolant's upper bounds and of its lower
+    /// bounds' negatives.
+    fn bound_pyramids(&self) -> (MaxPyramid, MaxPyramid) {
         let (nx, ny) = (self.u.n - 1, self.v.n - 1);
         let mut base = vec![f64::NEG_INFINITY; nx * ny];
+        let mut neg = vec![f64::NEG_INFINITY; nx * ny];
         let mut kernel = Vec::with_capacity(16);
         for i in 0..ny {
             for j in 0..nx {
@@ -424,27 +447,20 @@ impl HeightGrid {
                     continue;
                 }
                 let (lo, hi) = finite_range(kernel.iter());
-                base[i * nx + j] = interpolant_bound(lo, hi, self.interp).1;
+                let (blo, bhi) = interpolant_bound(lo, hi, self.interp);
+                base[i * nx + j] = bhi;
+                neg[i * nx + j] = -blo;
             }
         }
-        let mut levels = vec![(ny, nx, base)];
-        while levels.last().is_some_and(|(h, w, _)| *h > 1 || *w > 1) {
-            let (h, w, m) = levels.last().expect("a level");
-            let (h2, w2) = (h.div_ceil(2), w.div_ceil(2));
-            let mut up = vec![f64::NEG_INFINITY; h2 * w2];
-            for i in 0..*h {
-                for j in 0..*w {
-                    let x = &mut up[(i / 2) * w2 + j / 2];
-                    *x = x.max(m[i * w + j]);
-                }
-            }
-            levels.push((h2, w2, up));
-        }
-        MaxPyramid { levels }
+        (
+            MaxPyramid::build(ny, nx, base),
+            MaxPyramid::build(ny, nx, neg),
+        )
     }
 
     /// The cells [k0, k1] of an axis that a coordinate interval can touch
-    /// (one cell of slack each way for rounding).
+    /// (with 1e-6 of a cell of slack each way for rounding: a point within
+    /// it of a cell's edge may be evaluated in the cell beside).
     fn cells(a: &Axis, x0: f64, x1: f64) -> Option<(usize, usize)> {
         let (s0, s1) = ((x0 - a.x0) / a.dx, (x1 - a.x0) / a.dx);
         let (s0, s1) = (s0.min(s1), s0.max(s1));
@@ -452,8 +468,8 @@ impl HeightGrid {
             return None;
         }
         let top = (a.n - 2) as f64;
-        let k0 = (s0.floor() - 1.0).clamp(0.0, top) as usize;
-        let k1 = (s1.floor() + 1.0).clamp(0.0, top) as usize;
+        let k0 = (s0 - 1e-6).floor().clamp(0.0, top) as usize;
+        let k1 = (s1 + 1e-6).floor().clamp(0.0, top) as usize;
         Some((k0, k1))
     }
 }
@@ -469,6 +485,16 @@ impl HeightField for HeightGrid {
         let (j0, j1) = Self::cells(&self.u, u0, u1)?;
         let (i0, i1) = Self::cells(&self.v, v0, v1)?;
         Some(self.maxes.max(i0, i1, j0, j1))
+    }
+    fn height_range_in(&self, u0: f64, u1: f64, v0: f64, v1: f64) -> Option<(f64, f64)> {
+        self.range?;
+        let (j0, j1) = Self::cells(&self.u, u0, u1)?;
+        let (i0, i1) = Self::cells(&self.v, v0, v1)?;
+        // (no finite cell there: +∞ > −∞, "nothing")
+        Some((
+            -self.neg_mins.max(i0, i1, j0, j1),
+            self.maxes.max(i0, i1, j0, j1),
+        ))
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         for ((o, &u), &v) in out.iter_mut().zip(u).zip(v) {
