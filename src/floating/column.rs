@@ -1002,11 +1002,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
             let mut skip = 0.0;
             let hf = self.h as f64;
             // (on the picture, the common case: one test)
-            if has_prev
-                && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN)
-                && skips
-                && tau >= no_skip_until
-            {
+            let outside = has_prev && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN);
+            if outside && skips && tau >= no_skip_until {
                 skip = self.invisible_run(tt, tau, limit, cap);
                 if skip <= cap {
                     no_skip_until = tau + SKIP_MIN * cap;
@@ -1017,7 +1014,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
             // is taken from the look-ahead.
             let (mut h, mut h_max) = if skip > cap {
                 (skip, skip)
-            } else if !has_prev {
+            } else if !has_prev || outside {
+                // Beyond the picture's rows the row rate sets no step (the
+                // rows are clamped; a step into the picture shows as a gap
+                // and is retried shorter): near a pole, where that rate
+                // grows without bound, steps by it would approach the pole
+                // without end.
                 (cap, cap)
             } else if self.cov.depth(self.clamp_row(pa.rho)) > 2.0 * step_px {
                 // Deep inside the covered rows nothing can show before the
