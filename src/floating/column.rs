@@ -1003,7 +1003,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
             let hf = self.h as f64;
             // (on the picture, the common case: one test)
             let outside = has_prev && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN);
-            if outside && skips && tau >= no_skip_until {
+            // (or in a hole, or outside the domain: no sample to step from)
+            if (outside || !has_prev) && skips && tau >= no_skip_until {
                 skip = self.invisible_run(tt, tau, limit, cap);
                 if skip <= cap {
                     no_skip_until = tau + SKIP_MIN * cap;

@@ -2627,9 +2627,22 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 }
             }
             None => {
-                st.skipping = false;
+                // (a hole or the domain's edge: no sample to step from)
                 let cap = opts.max_step() * (st.rho.max(1e-9 * scale)) / ctx.cam.focal;
-                (cap, cap)
+                let skip = if st.skips && st.rho >= st.no_skip_until {
+                    self.invisible_run(st, cap)
+                } else {
+                    0.0
+                };
+                if skip <= cap {
+                    st.no_skip_until = st.rho + SKIP_MIN * cap;
+                }
+                st.skipping = skip > cap;
+                if st.skipping {
+                    (skip, skip)
+                } else {
+                    (cap, cap)
+                }
             }
         };
         st.h_max = h_max0;

@@ -927,3 +927,56 @@ fn skipping_what_lies_outside_the_picture_keeps_it() {
         }
     }
 }
+
+/// Views zoomed a million times (view height 1e-6 over a domain 5 wide):
+/// level, low and straight down into a grid's hole. Each column's line
+/// crosses the domain in some 10⁷ of its pixel's steps; the sweep takes a
+/// bounded number of samples (it once took the 4 million step limit per
+/// column): the stretches that the bounds keep outside the picture (a
+/// bilinear cell's exact range over the stretch, an expression's interval
+/// bound) and those in the hole (no finite value) are stepped over.
+#[test]
+fn extreme_zoom_sweeps_stay_bounded() {
+    use crate::source::{ExprHeight, HeightGrid, Interpolation};
+    let dom = Domain::new(0.0, 5.0, 0.0, 4.0).unwrap();
+    let expr = ExprHeight::new("0.3*u*u + sin(3*v)", &[], 0.0, dom).unwrap();
+    let (nx, ny) = (50, 40);
+    let mut rnd = crate::test_rng::uniform(3);
+    let mut z = vec![0.0; nx * ny];
+    for i in 0..ny {
+        for j in 0..nx {
+            z[i * nx + j] = if i == 0 { 0.0 } else { z[(i - 1) * nx + j] } + rnd();
+        }
+    }
+    for i in 10..14 {
+        for j in 20..26 {
+            z[i * nx + j] = f64::NAN;
+        }
+    }
+    let (du, dv) = (5.0 / (nx - 1) as f64, 4.0 / (ny - 1) as f64);
+    let grid = HeightGrid::new(z, ny, nx, 0.0, du, 0.0, dv, Interpolation::Bilinear).unwrap();
+    let ortho = |elevation: f64, azimuth: f64, target: (f64, f64, f64)| View {
+        elevation,
+        azimuth,
+        projection: Projection::Orthographic { view_height: 1e-6 },
+        target: DVec3::new(target.0, target.1, target.2),
+    };
+    let views = [
+        ortho(0.0, -323.0, (0.79, -0.89, 2.34)),
+        ortho(5.0, 65.0, (1.0, 1.3, 2.7)),
+        // (straight down into the hole: nothing to see)
+        ortho(89.99, -224.3, (2.12, 1.12, 2.05)),
+        ortho(23.4, -224.6, (0.3, 0.2, 0.5)),
+    ];
+    let fields: [&dyn HeightField; 2] = [&expr, &grid];
+    for (fi, field) in fields.iter().enumerate() {
+        for (vi, view) in views.iter().enumerate() {
+            let b = render_small(*field, view, &FloatingOptions::default());
+            let samples = stat(&b, "sweep_samples");
+            assert!(
+                samples < 100.0 * 64.0 * 48.0,
+                "field {fi}, view {vi}: {samples} sweep samples"
+            );
+        }
+    }
+}

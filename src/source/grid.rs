@@ -458,6 +458,55 @@ impl HeightGrid {
         )
     }
 
+    /// The bilinear interpolant's range over the box `u` × `v`, which
+    /// touches cells rows i0..=i1, columns j0..=j1 (None: one of them is a
+    /// hole). Over each cell's part of the box a bilinear function takes
+    /// its extremes at that part's corners (it is linear along each edge,
+    /// its one critical point a saddle), so the range is exact, widened
+    /// only for rounding (of the values, and of positions by 1e-12 of a
+    /// cell).
+    fn bilinear_range_in(
+        &self,
+        (i0, i1, j0, j1): (usize, usize, usize, usize),
+        u: (f64, f64),
+        v: (f64, f64),
+    ) -> Option<(f64, f64)> {
+        let local = |a: &Axis, (x0, x1): (f64, f64)| {
+            let (s0, s1) = ((x0 - a.x0) / a.dx, (x1 - a.x0) / a.dx);
+            (s0.min(s1), s0.max(s1))
+        };
+        let ((su0, su1), (sv0, sv1)) = (local(&self.u, u), local(&self.v, v));
+        let nx = self.u.n;
+        let (mut lo, mut hi, mut step) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                let k = i * nx + j;
+                let (z00, z01, z10, z11) =
+                    (self.z[k], self.z[k + 1], self.z[k + nx], self.z[k + nx + 1]);
+                if [z00, z01, z10, z11].iter().any(|x| x.is_nan()) {
+                    return None;
+                }
+                step = step.max(
+                    (z01 - z00)
+                        .abs()
+                        .max((z11 - z10).abs())
+                        .max((z10 - z00).abs()),
+                );
+                let (jf, if_) = (j as f64, i as f64);
+                for s in [(su0 - jf).clamp(0.0, 1.0), (su1 - jf).clamp(0.0, 1.0)] {
+                    for t in [(sv0 - if_).clamp(0.0, 1.0), (sv1 - if_).clamp(0.0, 1.0)] {
+                        let a = z00 + s * (z01 - z00);
+                        let b = z10 + s * (z11 - z10);
+                        let f = a + t * (b - a);
+                        (lo, hi) = (lo.min(f), hi.max(f));
+                    }
+                }
+            }
+        }
+        let m = 1e-12 * (lo.abs().max(hi.abs()) + step) + 1e-9 * (hi - lo) + f64::MIN_POSITIVE;
+        Some((lo - m, hi + m))
+    }
+
     /// The cells [k0, k1] of an axis that a coordinate interval can touch
     /// (with 1e-6 of a cell of slack each way for rounding: a point within
     /// it of a cell's edge may be evaluated in the cell beside).
@@ -490,6 +539,11 @@ impl HeightField for HeightGrid {
         self.range?;
         let (j0, j1) = Self::cells(&self.u, u0, u1)?;
         let (i0, i1) = Self::cells(&self.v, v0, v1)?;
+        if self.interp == Interpolation::Bilinear && i1 - i0 < 4 && j1 - j0 < 4 {
+            if let Some(r) = self.bilinear_range_in((i0, i1, j0, j1), (u0, u1), (v0, v1)) {
+                return Some(r);
+            }
+        }
         // (no finite cell there: +∞ > −∞, "nothing")
         Some((
             -self.neg_mins.max(i0, i1, j0, j1),
@@ -519,6 +573,63 @@ impl HeightField for HeightGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bounds over parts of the domain (what the sweeps step over
+    /// stretches by): every value sampled in a box lies inside its bound;
+    /// bilinear bounds over boxes within a few cells are the interpolant's
+    /// own range (to rounding), bicubic ones and larger boxes those of the
+    /// block pyramids; a box over a hole falls back to the pyramids.
+    #[test]
+    fn local_bounds_hold_and_are_exact_for_small_bilinear_boxes() {
+        let (nx, ny) = (23, 17);
+        let mut rnd = crate::test_rng::uniform(5);
+        let mut z: Vec<f64> = (0..nx * ny).map(|_| 4.0 * rnd() - 1.0).collect();
+        z[8 * nx + 9] = f64::NAN;
+        for interp in [Interpolation::Bilinear, Interpolation::Bicubic] {
+            let g = HeightGrid::new(z.clone(), ny, nx, -1.0, 0.25, 2.0, -0.5, interp).unwrap();
+            let d = g.domain();
+            let (mut exact, mut tried) = (0, 0);
+            for size in [3.0, 0.4, 0.01, 1e-7] {
+                for _ in 0..60 {
+                    let u0 = d.u0 + (d.u1 - d.u0 - size) * rnd();
+                    let v0 = d.v0 + (d.v1 - d.v0 - size) * rnd();
+                    let (u1, v1) = (u0 + size * rnd(), v0 + size * rnd());
+                    let (lo, hi) = g.height_range_in(u0, u1, v0, v1).unwrap();
+                    let (mut fmin, mut fmax) = (f64::INFINITY, f64::NEG_INFINITY);
+                    for a in 0..=8 {
+                        for b in 0..=8 {
+                            let u = u0 + (u1 - u0) * a as f64 / 8.0;
+                            let v = v0 + (v1 - v0) * b as f64 / 8.0;
+                            let f = g.eval_value(u, v);
+                            if f.is_finite() {
+                                assert!(lo <= f && f <= hi, "{interp:?}: {f} outside [{lo}, {hi}]");
+                                (fmin, fmax) = (fmin.min(f), fmax.max(f));
+                            }
+                        }
+                    }
+                    // Within a cell, the 9 × 9 samples include the box's
+                    // corners, the extremes: the bound is the range.
+                    let one_cell = ((u0 + 1.0) / 0.25).floor() == ((u1 + 1.0) / 0.25).floor()
+                        && ((2.0 - v0) / 0.5).floor() == ((2.0 - v1) / 0.5).floor();
+                    if interp == Interpolation::Bilinear && one_cell && fmin <= fmax {
+                        tried += 1;
+                        let tol = 1e-9 * (1.0 + fmax.abs());
+                        if fmin - lo <= tol && hi - fmax <= tol {
+                            exact += 1;
+                        }
+                    }
+                }
+            }
+            if interp == Interpolation::Bilinear {
+                // (all but boxes beside the hole, where the pyramid's
+                // bound stands in)
+                assert!(
+                    tried > 60 && exact as f64 >= 0.9 * tried as f64,
+                    "{exact} of {tried} exact"
+                );
+            }
+        }
+    }
 
     #[test]
     fn bicubic_reproduces_cubics_to_the_edge() {
