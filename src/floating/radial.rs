@@ -2607,13 +2607,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                 let outside = !(a.rho >= st.th_lo - SKIP_MARGIN && a.rho <= st.th_hi + SKIP_MARGIN);
                 let skip = if st.skips && outside && st.rho >= st.no_skip_until {
-                    self.invisible_run(st, cap)
+                    self.try_skip(st, cap)
                 } else {
                     0.0
                 };
-                if outside && skip <= cap {
-                    st.no_skip_until = st.rho + SKIP_MIN * cap;
-                }
                 st.skipping = skip > cap;
                 if st.skipping {
                     (skip, skip)
@@ -2630,13 +2627,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 // (a hole or the domain's edge: no sample to step from)
                 let cap = opts.max_step() * (st.rho.max(1e-9 * scale)) / ctx.cam.focal;
                 let skip = if st.skips && st.rho >= st.no_skip_until {
-                    self.invisible_run(st, cap)
+                    self.try_skip(st, cap)
                 } else {
                     0.0
                 };
-                if skip <= cap {
-                    st.no_skip_until = st.rho + SKIP_MIN * cap;
-                }
                 st.skipping = skip > cap;
                 if st.skipping {
                     (skip, skip)
@@ -2649,6 +2643,16 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.hstep = hstep;
         st.halvings = 0;
         true
+    }
+
+    /// [`Self::invisible_run`] from ρ = `st.rho`; after a try that fails,
+    /// none before ρ + [`SKIP_MIN`]·`cap`.
+    fn try_skip(&self, st: &mut RunState, cap: f64) -> f64 {
+        let skip = self.invisible_run(st, cap);
+        if skip <= cap {
+            st.no_skip_until = st.rho + SKIP_MIN * cap;
+        }
+        skip
     }
 
     /// The longest step from ρ = `st.rho` (to at most the sweep's end;
