@@ -916,7 +916,7 @@ fn skipping_what_lies_outside_the_picture_keeps_it() {
                 stat(&without, "sweep_samples"),
             );
             if fi < 2 {
-                // (measured 4.1–8.2× on these views)
+                // (measured 7.0–8.2× on these views)
                 assert!(
                     2.5 * a < b,
                     "field {fi}, view {vi}: {a} against {b} samples"
