@@ -182,13 +182,44 @@ const MAX_STEPS: usize = 4_000_000;
 /// Fraction of the allowed row gap the sweep's step aims at.
 pub(super) const AIM: f64 = 0.85;
 
-/// Rows beyond the image's first and last (clamped to by the sweep) within
-/// which a sample counts as on the image for [`Sweep::invisible_run`].
-const SKIP_MARGIN: f64 = 4.0;
+/// Rows beyond the image's first and last (clamped to by the sweep;
+/// perspective: units of a bin's `rho`, about pixels, beyond its rays)
+/// within which a sample counts as on the picture for the skip over
+/// stretches outside it ([`invisible_run`]).
+pub(super) const SKIP_MARGIN: f64 = 4.0;
 
-/// The shortest stretch [`Sweep::invisible_run`] tries, in largest steps;
-/// after a try that fails the sweep goes this far before the next.
-const SKIP_MIN: f64 = 8.0;
+/// The shortest stretch [`invisible_run`] tries, in largest steps; after a
+/// try that fails the sweep goes this far before the next.
+pub(super) const SKIP_MIN: f64 = 8.0;
+
+/// The longest length among `min_len`·2^k, capped at `max_len`, for which
+/// `invisible(l)` holds (the stretch of that length ahead shows nothing:
+/// it lies wholly above or below the picture); 0 if `min_len` fails. Both
+/// projections' sweeps step over such a stretch at once.
+pub(super) fn invisible_run(min_len: f64, max_len: f64, invisible: impl Fn(f64) -> bool) -> f64 {
+    let mut best = 0.0;
+    let mut l = min_len;
+    loop {
+        let l_try = l.min(max_len);
+        if l_try <= best || !invisible(l_try) {
+            return best;
+        }
+        best = l_try;
+        l *= 2.0;
+    }
+}
+
+/// Bounds (lo, hi) of f over the (u, v) box of a stretch with ends p and q
+/// (lo > hi: no finite value there); None where unknown or not a number.
+pub(super) fn stretch_bound(
+    field: &dyn crate::surface::HeightField,
+    p: DVec2,
+    q: DVec2,
+) -> Option<(f64, f64)> {
+    field
+        .height_range_in(p.x.min(q.x), p.x.max(q.x), p.y.min(q.y), p.y.max(q.y))
+        .filter(|(lo, hi)| !(lo.is_nan() || hi.is_nan()))
+}
 
 struct Sweep<'c, 'a> {
     ctx: &'c Ctx<'a>,
@@ -1005,7 +1036,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
             let outside = has_prev && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN);
             // (or in a hole, or outside the domain: no sample to step from)
             if (outside || !has_prev) && skips && tau >= no_skip_until {
-                skip = self.invisible_run(tt, tau, limit, cap);
+                // (orthographic columns: their line in (u, v) is fixed)
+                skip = invisible_run(SKIP_MIN * cap, limit - tau, |l| {
+                    self.invisible(tt(tau), tt(tau + l))
+                });
                 if skip <= cap {
                     no_skip_until = tau + SKIP_MIN * cap;
                 }
@@ -1127,25 +1161,6 @@ impl<'c, 'a> Sweep<'c, 'a> {
         }
     }
 
-    /// The longest step from τ (to at most `limit`; tried at
-    /// [`SKIP_MIN`]·`cap` and doublings of it) over which the column's curve
-    /// stays wholly above or wholly below the image ([`Self::invisible`]);
-    /// 0 if the shortest try fails. The samples of such a stretch cover no
-    /// row of the image, so stepping over it changes no pixel (orthographic
-    /// columns: their line in (u, v) is fixed).
-    fn invisible_run(&self, tt: impl Fn(f64) -> f64, tau: f64, limit: f64, cap: f64) -> f64 {
-        let mut best = 0.0;
-        let mut l = SKIP_MIN * cap;
-        loop {
-            let l_try = l.min(limit - tau);
-            if l_try <= best || !self.invisible(tt(tau), tt(tau + l_try)) {
-                return best;
-            }
-            best = l_try;
-            l *= 2.0;
-        }
-    }
-
     /// Is the column's curve between t = ta and tb wholly above or wholly
     /// below the image's rows ([`SKIP_MARGIN`] rows out)? By the surface's
     /// bounds over the stretch's (u, v) box: the camera's y = t·up_t +
@@ -1154,20 +1169,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
     fn invisible(&self, ta: f64, tb: f64) -> bool {
         let fr = &self.ctx.frame;
         let s0 = self.sampler.line.s0;
-        let (p, q) = (fr.uv(s0, ta), fr.uv(s0, tb));
-        let Some((lo, hi)) =
-            self.ctx
-                .field
-                .height_range_in(p.x.min(q.x), p.x.max(q.x), p.y.min(q.y), p.y.max(q.y))
-        else {
+        let Some((lo, hi)) = stretch_bound(self.ctx.field, fr.uv(s0, ta), fr.uv(s0, tb)) else {
             return false;
         };
         if lo > hi {
             // No finite value there: nothing to see.
             return true;
-        }
-        if lo.is_nan() || hi.is_nan() {
-            return false;
         }
         let (wl, wh) = ((lo - fr.origin.z) * fr.up_w, (hi - fr.origin.z) * fr.up_w);
         let (ya, yb) = (ta * fr.up_t, tb * fr.up_t);

@@ -34,6 +34,7 @@
 
 use super::artifacts;
 use super::column::{ColumnStats, Ctx, Pixel};
+use super::column::{SKIP_MARGIN, SKIP_MIN};
 use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
 use super::SharedOut;
@@ -989,14 +990,6 @@ pub(super) fn march_ray(
     (hit, sw.stats.refine_evals)
 }
 
-/// Units of `rho` (about pixels) beyond a bin's rays within which a sample
-/// counts as among them for [`RadialSweep::invisible_run`].
-const SKIP_MARGIN: f64 = 4.0;
-
-/// The shortest stretch [`RadialSweep::invisible_run`] tries, in largest
-/// steps; after a try that fails the sweep goes this far before the next.
-const SKIP_MIN: f64 = 8.0;
-
 /// Rounds of [`edge_searches`] on the mask's edge: it grows by up to this
 /// many pixels.
 const GROW_ROUNDS: usize = 2;
@@ -1754,7 +1747,7 @@ struct RunState {
     /// Waiting for the sample at the start of the sweep.
     first: bool,
     /// Stretches outside the rays stepped over at once
-    /// ([`RadialSweep::invisible_run`]), not before this ρ again after a
+    /// ([`RadialSweep::try_skip`]), not before this ρ again after a
     /// try that failed.
     skips: bool,
     no_skip_until: f64,
@@ -2599,6 +2592,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
         st.steps += 1;
         let scale = st.scale;
+        st.skipping = false;
         let (h_max0, hstep) = match &st.slots[st.p] {
             Some(a) => {
                 let cap = opts.max_step() * self.fp_at(a).max(1e-12 * scale);
@@ -2606,14 +2600,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                 let outside = !(a.rho >= st.th_lo - SKIP_MARGIN && a.rho <= st.th_hi + SKIP_MARGIN);
-                let skip = if st.skips && outside && st.rho >= st.no_skip_until {
-                    self.try_skip(st, cap)
-                } else {
-                    0.0
-                };
-                st.skipping = skip > cap;
-                if st.skipping {
-                    (skip, skip)
+                if outside && self.try_skip(st, cap) {
+                    (st.hstep, st.hstep)
                 } else if !deep && r > 0.0 && r.is_finite() {
                     (
                         (opts.step() / r).min(cap),
@@ -2626,14 +2614,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             None => {
                 // (a hole or the domain's edge: no sample to step from)
                 let cap = opts.max_step() * (st.rho.max(1e-9 * scale)) / ctx.cam.focal;
-                let skip = if st.skips && st.rho >= st.no_skip_until {
-                    self.try_skip(st, cap)
-                } else {
-                    0.0
-                };
-                st.skipping = skip > cap;
-                if st.skipping {
-                    (skip, skip)
+                if self.try_skip(st, cap) {
+                    (st.hstep, st.hstep)
                 } else {
                     (cap, cap)
                 }
@@ -2645,34 +2627,25 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         true
     }
 
-    /// [`Self::invisible_run`] from ρ = `st.rho`; after a try that fails,
-    /// none before ρ + [`SKIP_MIN`]·`cap`.
-    fn try_skip(&self, st: &mut RunState, cap: f64) -> f64 {
-        let skip = self.invisible_run(st, cap);
-        if skip <= cap {
+    /// Step over the stretch ahead of ρ = `st.rho` that shows nothing
+    /// ([`super::column::invisible_run`] with [`Self::invisible`]), when the
+    /// sweep may: true (and `st.skipping`, the step's length in
+    /// `st.hstep`) if it is longer than `cap`; after a try that fails, none
+    /// before ρ + [`SKIP_MIN`]·`cap`.
+    fn try_skip(&self, st: &mut RunState, cap: f64) -> bool {
+        if !st.skips || st.rho < st.no_skip_until {
+            return false;
+        }
+        let skip = super::column::invisible_run(SKIP_MIN * cap, st.r1 - st.rho, |l| {
+            self.invisible(st, st.rho, st.rho + l)
+        });
+        st.skipping = skip > cap;
+        if st.skipping {
+            st.hstep = skip;
+        } else {
             st.no_skip_until = st.rho + SKIP_MIN * cap;
         }
-        skip
-    }
-
-    /// The longest step from ρ = `st.rho` (to at most the sweep's end;
-    /// tried at [`SKIP_MIN`]·`cap` and doublings of it) over which the
-    /// plane's curve stays wholly below or wholly above the bin's rays
-    /// ([`Self::invisible`]); 0 if the shortest try fails. Such a stretch's
-    /// samples cover no ray, so stepping over it hides and shows nothing
-    /// (a telephoto view: most of each plane lies in front of the picture,
-    /// below its rays).
-    fn invisible_run(&self, st: &RunState, cap: f64) -> f64 {
-        let mut best = 0.0;
-        let mut l = SKIP_MIN * cap;
-        loop {
-            let l_try = l.min(st.r1 - st.rho);
-            if l_try <= best || !self.invisible(st, st.rho, st.rho + l_try) {
-                return best;
-            }
-            best = l_try;
-            l *= 2.0;
-        }
+        st.skipping
     }
 
     /// Is the plane's curve over ρ ∈ [ra, rb] wholly below or wholly above
@@ -2689,22 +2662,12 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let p = DVec2::new(e.x, e.y) + r * self.eh;
             DVec2::new(p.x.clamp(d.u0, d.u1), p.y.clamp(d.v0, d.v1))
         };
-        let (pa, pb) = (at(ra), at(rb));
-        let pad = 1e-9 * (d.u1 - d.u0).abs().max((d.v1 - d.v0).abs());
-        let Some((lo, hi)) = ctx.field.height_range_in(
-            pa.x.min(pb.x) - pad,
-            pa.x.max(pb.x) + pad,
-            pa.y.min(pb.y) - pad,
-            pa.y.max(pb.y) + pad,
-        ) else {
+        let Some((lo, hi)) = super::column::stretch_bound(ctx.field, at(ra), at(rb)) else {
             return false;
         };
         if lo > hi {
             // No finite value there: nothing to see.
             return true;
-        }
-        if lo.is_nan() || hi.is_nan() {
-            return false;
         }
         let (wl, wh) = (lo - e.z, hi - e.z);
         let top = bound_margin(self.ppr * elevation(wh, ra).max(elevation(wh, rb)));

@@ -171,11 +171,15 @@ impl ExprHeight {
     }
 
     fn bind(bound: Bound, domain: Domain) -> Self {
+        let bounder = Arc::new(bound.compiled.value_bounder(&bound.values, 0));
+        let d = domain;
+        // (None where f is NaN everywhere, as where a bound is infinite)
+        let range = box_range(&bounder, d, (d.u0, d.u1), (d.v0, d.v1)).filter(|(lo, hi)| lo <= hi);
         ExprHeight {
             grad: bound.program(1),
             value: bound.program(0),
-            range: value_range(&bound, domain),
-            bounder: Arc::new(bound.compiled.value_bounder(&bound.values, 0)),
+            range,
+            bounder,
             bound,
             domain,
         }
@@ -203,18 +207,17 @@ impl ExprHeight {
     }
 }
 
-/// Interval bounds of the expression's value over `domain` (widened by
-/// 1e-9 of its size, for evaluations a rounding outside); None where a
-/// bound is infinite or f is NaN everywhere.
-fn value_range(bound: &Bound, d: Domain) -> Option<(f64, f64)> {
+/// Interval bounds of the value over the box `u` × `v` of `domain`,
+/// widened by 1e-9 of the domain's size (for evaluations a rounding
+/// outside): (+∞, −∞) where f is NaN everywhere there, None where a bound
+/// is infinite.
+fn box_range(b: &ValueBound, d: Domain, u: (f64, f64), v: (f64, f64)) -> Option<(f64, f64)> {
     let (pu, pv) = (1e-9 * (d.u1 - d.u0), 1e-9 * (d.v1 - d.v0));
-    let iv = bound.compiled.value_bound(
-        &bound.values,
-        0,
-        (d.u0 - pu, d.u1 + pu),
-        (d.v0 - pv, d.v1 + pv),
-    );
-    (iv.lo.is_finite() && iv.hi.is_finite() && iv.lo <= iv.hi).then_some((iv.lo, iv.hi))
+    let iv = b.over((u.0 - pu, u.1 + pu), (v.0 - pv, v.1 + pv));
+    if iv.is_empty() {
+        return Some((f64::INFINITY, f64::NEG_INFINITY));
+    }
+    (iv.lo.is_finite() && iv.hi.is_finite()).then_some((iv.lo, iv.hi))
 }
 
 impl HeightField for ExprHeight {
@@ -225,14 +228,7 @@ impl HeightField for ExprHeight {
         self.range
     }
     fn height_range_in(&self, u0: f64, u1: f64, v0: f64, v1: f64) -> Option<(f64, f64)> {
-        // (widened as the domain's bound is, for points a rounding outside)
-        let d = self.domain;
-        let (pu, pv) = (1e-9 * (d.u1 - d.u0), 1e-9 * (d.v1 - d.v0));
-        let iv = self.bounder.over((u0 - pu, u1 + pu), (v0 - pv, v1 + pv));
-        if iv.is_empty() {
-            return Some((f64::INFINITY, f64::NEG_INFINITY));
-        }
-        (iv.lo.is_finite() && iv.hi.is_finite()).then_some((iv.lo, iv.hi))
+        box_range(&self.bounder, self.domain, (u0, u1), (v0, v1))
     }
     fn eval_batch(&self, u: &[f64], v: &[f64], out: &mut [HeightSample]) {
         // Tiny batches take the one-point path (same results, bit for bit).
