@@ -300,6 +300,35 @@ def test_zoomed_views_skip_what_lies_outside_the_picture(name, kw):
     assert img.stats["sweep_samples"] <= 2 * W * H, img.stats
 
 
+# Narrow fields of view far from the vertical: the azimuth bins (at most
+# 1.25 px wide at the most sensitive pixel) number in the hundreds of millions
+# over the full circle, of which the picture meets a few hundred.
+NARROW = [
+    dict(elevation=30, azimuth=30, projection="perspective", distance=24.0, fov=1e-3, target=(1.0, 0.5, 1.58)),
+    dict(elevation=30, azimuth=30, projection="perspective", distance=24.0, fov=1e-4, target=(1.0, 0.5, 1.58)),
+    dict(elevation=-10, azimuth=140, projection="perspective", distance=9.0, fov=1e-4, target=(0.3, -2.0, 0.0)),
+]
+
+
+@pytest.mark.parametrize("kw", NARROW, ids=["fov1e-3", "fov1e-4", "fov1e-4-below"])
+def test_narrow_fields_of_view_keep_their_bins_narrow(kw):
+    view = make_view(kw)
+    ref = reference("sinuv", kw)
+    img = fcol.render(surface("sinuv"), view, W, H, outputs=ALL, shading="normal")
+    res = compare(img, ref, view)
+    assert res["n_compared"] > 0.5 * W * H, res
+    assert res["mask_bad"] == 0 and res["side_bad"] == 0, res
+    assert res["normal_deg_median"] <= 1e-3 and res["normal_deg_p99"] <= 0.05, res
+    assert res["ssim"] >= 0.97, res
+    # A pixel here is 1e-7 of the distance: float32 depths round to several
+    # pixels, so depth is checked against that rounding, not in pixels.
+    both = img.mask & np.asarray(ref.mask, dtype=bool)
+    rd = np.asarray(ref.depth, dtype=np.float64)[both]
+    err = np.abs(img.depth[both].astype(np.float64) - rd)
+    assert np.all(err <= 2 * np.spacing(np.float32(rd)).astype(np.float64)), err.max()
+    assert img.stats["sweep_samples"] <= 2 * W * H, img.stats
+
+
 def test_bench_times_with_numpy_blas_on_one_thread():
     """The bench and the demo time every method with NumPy's BLAS limited
     to one thread (its idle workers would busy-wait on the cores after each

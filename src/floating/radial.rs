@@ -294,7 +294,9 @@ fn bin_count(cam: &crate::camera::Camera, width: f64) -> usize {
         .reduce(|| 1.0, f64::max);
     let sens = sens.max(grid);
     // Bins of width ≤ `width` px laterally at the most sensitive pixel.
-    ((2.0 * PI * sens / width).ceil() as usize).clamp(1, 1 << 24)
+    // (a field of view of a millionth of a degree wants some 10¹² bins;
+    // beyond 10¹³ a bin edge's azimuth nears f64's resolution of π)
+    (2.0 * PI * sens / width).ceil().clamp(1.0, 1e13) as usize
 }
 
 /// Bins [g0, g1) of [`render_radial`] without coverage, their results onto
@@ -1441,12 +1443,12 @@ impl<'b> Runs<'b> {
             .map(|j| [bin(0, j), bin(h - 1, j)])
             .chain((0..h).into_par_iter().map(|i| [bin(i, 0), bin(i, w - 1)]))
             .collect();
-        let mut seen = vec![false; n];
-        for b in border.into_iter().flatten() {
-            seen[b] = true;
-        }
+        // (sorted, not marked in an array of all the bins: a narrow field of
+        // view far from the vertical has some 10⁸ of them)
+        let mut marked: Vec<usize> = border.into_iter().flatten().collect();
+        marked.sort_unstable();
+        marked.dedup();
         // The largest circular gap between marked bins lies outside.
-        let marked: Vec<usize> = (0..n).filter(|&b| seen[b]).collect();
         let (mut gap, mut after) = (0, 0);
         for (k, &b) in marked.iter().enumerate() {
             let next = marked[(k + 1) % marked.len()];
@@ -1543,7 +1545,7 @@ impl<'b> Runs<'b> {
             if b0 > b1 {
                 continue;
             }
-            let (e0, e1) = (self.bins.edge[g0 + b0], self.bins.edge[g0 + b1 + 1]);
+            let (e0, e1) = (self.bins.edge(g0 + b0), self.bins.edge(g0 + b1 + 1));
             let i = if up { h - 1 - r } else { r };
             let y = self.y(i);
             // Possibly in the group: L_g0 > −tol and not L_g1 > tol.
@@ -1848,20 +1850,40 @@ fn direction(cs: DVec2, s: f64) -> DVec3 {
 /// with the bin's two bounding directions (no atan2 per pixel).
 pub(crate) struct Bins {
     n: usize,
-    /// Bounding directions (cos, sin) of the n + 1 bin edges.
+    /// Bounding directions (cos, sin) of the n + 1 bin edges, tabulated
+    /// up to [`Bins::TABLE`] bins (a narrow field of view far from the
+    /// vertical wants bins by the hundred million, of which its rays meet
+    /// a few hundred: their edges are computed where they are asked for).
     edge: Vec<DVec2>,
 }
 
 impl Bins {
+    /// Most bins whose edges are tabulated.
+    const TABLE: usize = 1 << 20;
+
     pub(crate) fn new(n: usize) -> Self {
-        use std::f64::consts::PI;
-        let edge = (0..=n)
-            .map(|b| {
-                let (s, c) = (-PI + 2.0 * PI * b as f64 / n as f64).sin_cos();
-                DVec2::new(c, s)
-            })
-            .collect();
+        let edge = if n <= Self::TABLE {
+            (0..=n).map(|b| Self::edge_of(n, b)).collect()
+        } else {
+            Vec::new()
+        };
         Bins { n, edge }
+    }
+
+    #[inline]
+    fn edge_of(n: usize, b: usize) -> DVec2 {
+        use std::f64::consts::PI;
+        let (s, c) = (-PI + 2.0 * PI * b as f64 / n as f64).sin_cos();
+        DVec2::new(c, s)
+    }
+
+    /// The bounding direction of edge b (0 ≤ b ≤ n).
+    #[inline]
+    pub(crate) fn edge(&self, b: usize) -> DVec2 {
+        match self.edge.get(b) {
+            Some(&e) => e,
+            None => Self::edge_of(self.n, b),
+        }
     }
 
     /// The azimuth φ of bin b's centre line (the plane its sweep runs in).
@@ -1880,14 +1902,21 @@ impl Bins {
             let f = (fast_atan2(y, x) + PI) / (2.0 * PI);
             return ((f * n as f64) as usize).min(n - 1);
         }
-        let f = (approx_atan2(y, x) + PI) / (2.0 * PI);
+        // (the cheap estimate is within 1e-5 rad: a few bins up to a
+        // million; beyond, the exact one, within a bin up to some 10¹⁴)
+        let phi = if n <= Self::TABLE {
+            approx_atan2(y, x)
+        } else {
+            fast_atan2(y, x)
+        };
+        let f = (phi + PI) / (2.0 * PI);
         let mut b = ((f * n as f64).max(0.0) as usize).min(n - 1);
         // (x, y) lies counter-clockwise of edge e when e × (x, y) ≥ 0.
         let ccw = |e: DVec2| e.x * y - e.y * x >= 0.0;
-        while b > 0 && !ccw(self.edge[b]) {
+        while b > 0 && !ccw(self.edge(b)) {
             b -= 1;
         }
-        while b + 1 < n && ccw(self.edge[b + 1]) {
+        while b + 1 < n && ccw(self.edge(b + 1)) {
             b += 1;
         }
         b
@@ -1909,16 +1938,16 @@ impl Bins {
         // clockwise of its upper edge), each edge tested once, up to four
         // bins. Edges 0 and n are the same direction (φ = ±π): a walk
         // across it starts afresh.
-        if ccw(self.edge[b0]) {
+        if ccw(self.edge(b0)) {
             for b in b0..(b0 + 4).min(n) {
-                if !ccw(self.edge[b + 1]) {
+                if !ccw(self.edge(b + 1)) {
                     // Between edges b and b + 1 (each within π of the other).
                     return b;
                 }
             }
         } else {
             for b in (b0.saturating_sub(3)..b0).rev() {
-                if ccw(self.edge[b]) {
+                if ccw(self.edge(b)) {
                     return b;
                 }
             }

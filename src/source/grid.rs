@@ -64,6 +64,13 @@ impl Axis {
     /// Cell index (0..n−2) and fraction in [0, 1] of coordinate x, or None
     /// outside.
     #[inline]
+    /// An interval of coordinates in cells (ascending, cell k from k to
+    /// k + 1).
+    fn local(&self, (x0, x1): (f64, f64)) -> (f64, f64) {
+        let (s0, s1) = ((x0 - self.x0) / self.dx, (x1 - self.x0) / self.dx);
+        (s0.min(s1), s0.max(s1))
+    }
+
     fn locate(&self, x: f64) -> Option<(usize, f64)> {
         let s = (x - self.x0) / self.dx;
         let top = (self.n - 1) as f64;
@@ -379,6 +386,41 @@ pub fn keys(t: f64) -> ([f64; 4], [f64; 4]) {
     )
 }
 
+/// The power-basis coefficients (of s⁰ … s³) of Σ_b w_b(s) z_b, Keys'
+/// weights ([`keys`]) applied to four samples.
+#[inline]
+fn keys_poly(z: &[f64; 4]) -> [f64; 4] {
+    [
+        z[1],
+        0.5 * (z[2] - z[0]),
+        z[0] - 2.5 * z[1] + 2.0 * z[2] - 0.5 * z[3],
+        0.5 * (-z[0] + 3.0 * z[1] - 3.0 * z[2] + z[3]),
+    ]
+}
+
+/// The cubic with power coefficients `c` on [s0, s0 + h], as a cubic in
+/// x ∈ [0, 1] (s = s0 + h·x): its Taylor coefficients at s0 times hᵏ.
+#[inline]
+fn shifted(c: [f64; 4], s0: f64, h: f64) -> [f64; 4] {
+    [
+        ((c[3] * s0 + c[2]) * s0 + c[1]) * s0 + c[0],
+        ((3.0 * c[3] * s0 + 2.0 * c[2]) * s0 + c[1]) * h,
+        (3.0 * c[3] * s0 + c[2]) * h * h,
+        c[3] * h * h * h,
+    ]
+}
+
+/// A cubic's Bernstein coefficients on [0, 1] from its power ones.
+#[inline]
+fn to_bernstein(a: [f64; 4]) -> [f64; 4] {
+    [
+        a[0],
+        a[0] + a[1] / 3.0,
+        a[0] + 2.0 * a[1] / 3.0 + a[2] / 3.0,
+        a[0] + a[1] + a[2] + a[3],
+    ]
+}
+
 /// Bounds of an interpolant whose samples span [lo, hi]: bilinear values
 /// are convex combinations of them; a bicubic value is Σ wᵢ zᵢ with Σ wᵢ = 1
 /// and Σ |wᵢ| ≤ 1.25² (Keys' weights at a = −0.5: the two negative ones add
@@ -471,11 +513,7 @@ impl HeightGrid {
         u: (f64, f64),
         v: (f64, f64),
     ) -> Option<(f64, f64)> {
-        let local = |a: &Axis, (x0, x1): (f64, f64)| {
-            let (s0, s1) = ((x0 - a.x0) / a.dx, (x1 - a.x0) / a.dx);
-            (s0.min(s1), s0.max(s1))
-        };
-        let ((su0, su1), (sv0, sv1)) = (local(&self.u, u), local(&self.v, v));
+        let ((su0, su1), (sv0, sv1)) = (self.u.local(u), self.v.local(v));
         let nx = self.u.n;
         let (mut lo, mut hi, mut step) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
         for i in i0..=i1 {
@@ -504,6 +542,69 @@ impl HeightGrid {
             }
         }
         let m = 1e-12 * (lo.abs().max(hi.abs()) + step) + 1e-9 * (hi - lo) + f64::MIN_POSITIVE;
+        Some((lo - m, hi + m))
+    }
+
+    /// The bicubic interpolant's bounds over the box `u` × `v`, which
+    /// touches cells rows i0..=i1, columns j0..=j1 (None: one of them is a
+    /// hole). Over each cell's part of the box the interpolant is a
+    /// polynomial of degree 3 in each axis: written in the Bernstein basis
+    /// of that part, it lies within the range of its 16 coefficients (the
+    /// convex hull property), which holds its values at the part's corners
+    /// and closes in on its range as the part shrinks (the excess falls
+    /// with the square of the part's size). Widened for rounding (of the
+    /// values, and of positions by 1e-12 of a cell).
+    fn bicubic_range_in(
+        &self,
+        (i0, i1, j0, j1): (usize, usize, usize, usize),
+        u: (f64, f64),
+        v: (f64, f64),
+    ) -> Option<(f64, f64)> {
+        let ((su0, su1), (sv0, sv1)) = (self.u.local(u), self.v.local(v));
+        let w = self.u.n + 2;
+        let (mut lo, mut hi, mut size) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
+        for i in i0..=i1 {
+            let (t0, t1) = (
+                (sv0 - i as f64).clamp(0.0, 1.0),
+                (sv1 - i as f64).clamp(0.0, 1.0),
+            );
+            for j in j0..=j1 {
+                let (s0, s1) = (
+                    (su0 - j as f64).clamp(0.0, 1.0),
+                    (su1 - j as f64).clamp(0.0, 1.0),
+                );
+                // The kernel relative to its centre sample (as `sample`
+                // sums it: the weights sum to 1, so constants stay exact).
+                let c = self.ext[(i + 1) * w + j + 1];
+                let mut k = [[0.0; 4]; 4];
+                for (a, row) in k.iter_mut().enumerate() {
+                    let src = &self.ext[(i + a) * w + j..(i + a) * w + j + 4];
+                    for (b, x) in row.iter_mut().enumerate() {
+                        *x = src[b] - c;
+                        if x.is_nan() {
+                            return None;
+                        }
+                        size = size.max(x.abs());
+                    }
+                }
+                // Along u: each kernel row's cubic in s, on [s0, s1] as a
+                // cubic in x ∈ [0, 1]; then along v the same for each power
+                // of x.
+                let px: [[f64; 4]; 4] =
+                    std::array::from_fn(|a| shifted(keys_poly(&k[a]), s0, s1 - s0));
+                // by[p][q]: the coefficient of x^p, in the Bernstein basis in y.
+                let by: [[f64; 4]; 4] = std::array::from_fn(|p| {
+                    let col = std::array::from_fn(|a| px[a][p]);
+                    to_bernstein(shifted(keys_poly(&col), t0, t1 - t0))
+                });
+                let coef = (0..4).flat_map(|q| to_bernstein(std::array::from_fn(|p| by[p][q])));
+                for x in coef {
+                    (lo, hi) = (lo.min(c + x), hi.max(c + x));
+                }
+                size = size.max(c.abs());
+            }
+        }
+        let m = 1e-11 * (lo.abs().max(hi.abs()) + size) + 1e-9 * (hi - lo) + f64::MIN_POSITIVE;
         Some((lo - m, hi + m))
     }
 
@@ -539,8 +640,13 @@ impl HeightField for HeightGrid {
         self.range?;
         let (j0, j1) = Self::cells(&self.u, u0, u1)?;
         let (i0, i1) = Self::cells(&self.v, v0, v1)?;
-        if self.interp == Interpolation::Bilinear && i1 - i0 < 4 && j1 - j0 < 4 {
-            if let Some(r) = self.bilinear_range_in((i0, i1, j0, j1), (u0, u1), (v0, v1)) {
+        if i1 - i0 < 4 && j1 - j0 < 4 {
+            let cells = (i0, i1, j0, j1);
+            let r = match self.interp {
+                Interpolation::Bilinear => self.bilinear_range_in(cells, (u0, u1), (v0, v1)),
+                Interpolation::Bicubic => self.bicubic_range_in(cells, (u0, u1), (v0, v1)),
+            };
+            if let Some(r) = r {
                 return Some(r);
             }
         }
@@ -577,10 +683,11 @@ mod tests {
     /// Bounds over parts of the domain (what the sweeps step over
     /// stretches by): every value sampled in a box lies inside its bound;
     /// bilinear bounds over boxes within a few cells are the interpolant's
-    /// own range (to rounding), bicubic ones and larger boxes those of the
-    /// block pyramids; a box over a hole falls back to the pyramids.
+    /// own range (to rounding), bicubic ones close in on it with the square
+    /// of the box, larger boxes take those of the block pyramids; a box over
+    /// a hole falls back to the pyramids.
     #[test]
-    fn local_bounds_hold_and_are_exact_for_small_bilinear_boxes() {
+    fn local_bounds_hold_and_are_tight_for_small_boxes() {
         let (nx, ny) = (23, 17);
         let mut rnd = crate::test_rng::uniform(5);
         let mut z: Vec<f64> = (0..nx * ny).map(|_| 4.0 * rnd() - 1.0).collect();
@@ -588,7 +695,7 @@ mod tests {
         for interp in [Interpolation::Bilinear, Interpolation::Bicubic] {
             let g = HeightGrid::new(z.clone(), ny, nx, -1.0, 0.25, 2.0, -0.5, interp).unwrap();
             let d = g.domain();
-            let (mut exact, mut tried) = (0, 0);
+            let (mut exact, mut tried, mut close) = (0, 0, 0);
             for size in [3.0, 0.4, 0.01, 1e-7] {
                 for _ in 0..60 {
                     let u0 = d.u0 + (d.u1 - d.u0 - size) * rnd();
@@ -611,6 +718,19 @@ mod tests {
                     // corners, the extremes: the bound is the range.
                     let one_cell = ((u0 + 1.0) / 0.25).floor() == ((u1 + 1.0) / 0.25).floor()
                         && ((2.0 - v0) / 0.5).floor() == ((2.0 - v1) / 0.5).floor();
+                    if interp == Interpolation::Bicubic && one_cell && fmin <= fmax && size <= 0.01
+                    {
+                        // The Bernstein bound closes in with the square of
+                        // the box (in cells; the samples span 4).
+                        let h = ((u1 - u0) / 0.25).max((v1 - v0) / 0.5);
+                        let excess = (fmin - lo).max(hi - fmax);
+                        let tol = 1e-9 * (1.0 + fmax.abs()) + 4.0 * h * h;
+                        assert!(
+                            excess <= tol,
+                            "bicubic box of {h} cells: {excess} over the range"
+                        );
+                        close += 1;
+                    }
                     if interp == Interpolation::Bilinear && one_cell && fmin <= fmax {
                         tried += 1;
                         let tol = 1e-9 * (1.0 + fmax.abs());
@@ -627,6 +747,8 @@ mod tests {
                     tried > 60 && exact as f64 >= 0.9 * tried as f64,
                     "{exact} of {tried} exact"
                 );
+            } else {
+                assert!(close > 60, "{close} small bicubic boxes within a cell");
             }
         }
     }
