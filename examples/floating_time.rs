@@ -8,7 +8,7 @@
 //! sweep without stepping over stretches outside the picture, el, az and dist to
 //! change the view's elevation, azimuth and (perspective) distance, vh
 //! (orthographic view height) and fov (perspective) to zoom, tx, ty, tz for
-//! the target
+//! the target, expr and domain (u0,u1,v0,v1) for another surface
 //! and stats=1 to print the render's counters (with evaluations per pixel seen).
 
 use _fcol::camera::Projection;
@@ -32,6 +32,8 @@ fn main() {
     let (mut el, mut az, mut dist): (Option<f64>, Option<f64>, Option<f64>) = (None, None, None);
     let (mut vh, mut fov): (Option<f64>, Option<f64>) = (None, None);
     let mut target = DVec3::ZERO;
+    let mut expr = "3*sin(u*cos(v))".to_string();
+    let mut domain = [-5.0, 5.0, -5.0, 5.0];
     let mut names = vec![
         "rgb".to_string(),
         "depth".into(),
@@ -59,6 +61,11 @@ fn main() {
             "az" => az = Some(v.parse().unwrap()),
             "dist" => dist = Some(v.parse().unwrap()),
             "tol" => o.refine_tol = v.parse().unwrap(),
+            "expr" => expr = v.to_string(),
+            "domain" => {
+                let xs: Vec<f64> = v.split(',').map(|x| x.parse().unwrap()).collect();
+                domain.copy_from_slice(&xs);
+            }
             _ => panic!("unknown option {k}"),
         }
     }
@@ -96,8 +103,8 @@ fn main() {
         *view_height = x;
     }
     view.target = target;
-    let dom = Domain::new(-5.0, 5.0, -5.0, 5.0).unwrap();
-    let f = ExprHeight::new("3*sin(u*cos(v))", &[], 0.0, dom).unwrap();
+    let dom = Domain::new(domain[0], domain[1], domain[2], domain[3]).unwrap();
+    let f = ExprHeight::new(&expr, &[], 0.0, dom).unwrap();
     let outs = Outputs::from_names(&names.iter().map(String::as_str).collect::<Vec<_>>()).unwrap();
     let sh = Shading::default();
     let mut times = Vec::new();

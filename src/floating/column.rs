@@ -1085,10 +1085,18 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         let (a, b) = (&*pa, &*pb);
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
                         let hidden = gap > step_px && self.hidden(a, b);
-                        if gap > step_px && !hidden && halvings < 40 && hh > min_frac * fp {
+                        // (down to a few units of the last place of τ and
+                        // t: shorter steps would round to none, and a jump
+                        // (a wall) would be retried there without end)
+                        let ulps = 8.0 * f64::EPSILON * tau.abs().max(tt(tau).abs());
+                        if gap > step_px
+                            && !hidden
+                            && halvings < 40
+                            && hh > (min_frac * fp).max(2.0 * ulps)
+                        {
                             // Retry at the step the gap suggests (rows vary
                             // about linearly over a small step).
-                            h = hh * (0.9 * step_px / gap).clamp(0.05, 0.5);
+                            h = (hh * (0.9 * step_px / gap).clamp(0.05, 0.5)).max(ulps);
                             h_max = h;
                             halvings += 1;
                             continue;
@@ -1440,8 +1448,14 @@ impl<'c, 'a> Sweep<'c, 'a> {
         // not monotone (a silhouette between the samples), linear weights
         // and an exact solve.
         let herm = cubic.as_ref().and_then(|c| c.at(row));
+        // A wall (§5.1, a jump between the samples): the pixel's ray meets
+        // it at the wall's place, midway between them along the sweep, not
+        // where the two sides' values would interpolate to (beside a pole
+        // of tan(u), heights of ±10¹⁶: a depth and (u, v) far outside).
+        let at_wall = if wall { self.wall_hit(a, b, row) } else { None };
         let (z, wb) = match herm {
             Some((tau, t, w)) => (t * fr.d_t + w * fr.d_w, tau),
+            None if at_wall.is_some() => (at_wall.expect("wall hit").0, 0.5),
             None => {
                 let tau = chord_tau(a, b, row);
                 // Perspective-correct weights (1/z is linear on the screen).
@@ -1453,7 +1467,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 }
             }
         };
-        let uv = a.uv.lerp(b.uv, wb);
+        let uv = at_wall.map_or_else(|| a.uv.lerp(b.uv, wb), |(_, uv)| uv);
         let n = a.n.lerp(b.n, wb).normalize_or(a.n);
         let inten = a.inten + wb * (b.inten - a.inten);
         let mut px = Pixel {
@@ -1498,6 +1512,27 @@ impl<'c, 'a> Sweep<'c, 'a> {
 }
 
 impl Sweep<'_, '_> {
+    /// Where the ray of row `row` meets the vertical wall between samples
+    /// a and b, placed midway between them along the sweep: its depth and
+    /// (u, v). None where the rays are vertical (no wall shows) or not in
+    /// an orthographic view.
+    fn wall_hit(&self, a: &Sample, b: &Sample, row: f64) -> Option<(f64, DVec2)> {
+        let (fr, cam) = (&self.ctx.frame, self.ctx.cam);
+        if fr.persp {
+            return None;
+        }
+        let d = DVec2::new(cam.d.x, cam.d.y);
+        let dd = d.length_squared();
+        if dd < 1e-12 {
+            return None;
+        }
+        let p = fr.uv(self.sampler.line.s0, 0.5 * (a.t + b.t));
+        let (o, _) = cam.ray(row, self.col);
+        let o = DVec2::new(o.x, o.y);
+        let lam = (p - o).dot(d) / dd;
+        lam.is_finite().then(|| (lam, o + lam * d))
+    }
+
     /// Queue pixel `i` (ray o + λ·dir, interpolated depth z) for the
     /// batched exact solve, bracketed by the span a–b; false when the ray
     /// does not look into the scene.

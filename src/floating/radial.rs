@@ -2624,13 +2624,29 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.skipping = false;
         let (h_max0, hstep) = match &st.slots[st.p] {
             Some(a) => {
-                let cap = opts.max_step() * self.fp_at(a).max(1e-12 * scale);
+                let outside = !(a.rho >= st.th_lo - SKIP_MARGIN && a.rho <= st.th_hi + SKIP_MARGIN);
+                // (beyond the rays' elevations, at most a footprint of the
+                // rays there: a sample's own distance grows without bound
+                // beside a pole, and steps by it would overshoot the pole
+                // again and again)
+                let fp = if outside {
+                    self.fp_at(a).min(self.band_fp(st))
+                } else {
+                    self.fp_at(a)
+                };
+                let cap = opts.max_step() * fp.max(1e-12 * scale);
                 // (the elevation rate in local pixels)
                 let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
-                let outside = !(a.rho >= st.th_lo - SKIP_MARGIN && a.rho <= st.th_hi + SKIP_MARGIN);
                 if outside && self.try_skip(st, cap) {
                     (st.hstep, st.hstep)
+                } else if outside {
+                    // Beyond the rays' elevations the elevation rate sets
+                    // no step (the gaps there are clamped, see
+                    // [`Self::drive`]): near a pole, where that rate grows
+                    // without bound, steps by it would approach the pole
+                    // without end (as in the orthographic sweep).
+                    (cap, cap)
                 } else if !deep && r > 0.0 && r.is_finite() {
                     (
                         (opts.step() / r).min(cap),
@@ -2774,6 +2790,16 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 
     /// World size of a pixel at sample `s`.
     #[inline]
+    /// The footprint of the bin's rays at horizontal distance `st.rho`:
+    /// that distance over the cosine of their steepest elevation, over the
+    /// focal length.
+    fn band_fp(&self, st: &RunState) -> f64 {
+        let s = (st.th_lo.abs().max(st.th_hi.abs()) / self.ppr).min(1.0);
+        // (s = tan(θ/2): 1/cos θ = (1 + s²)/(1 − s²))
+        let sec = (1.0 + s * s) / (1.0 - s * s).max(1e-12);
+        st.rho * sec / self.ctx.cam.focal
+    }
+
     fn fp_at(&self, s: &Sample) -> f64 {
         let e = self.ctx.cam.eye;
         ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / self.ctx.cam.focal
@@ -2821,14 +2847,23 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 (Some(a), Some(b)) => {
                     // The gap in local pixels (the larger rate of its ends).
                     let rb = self.rate.at(b.rho);
-                    let gap = (b.rho - a.rho).abs() * st.rate.max(rb);
+                    // (elevations clamped to 2 units beyond the rays': a
+                    // stretch wholly above or below them shows no gap)
+                    let clamp = |r: f64| r.max(st.th_lo - 2.0).min(st.th_hi + 2.0);
+                    let gap = (clamp(b.rho) - clamp(a.rho)).abs() * st.rate.max(rb);
                     let hidden = gap > opts.step() && (st.skipping || self.hidden(a, b));
+                    // (a step is retried shorter down to a few units of
+                    // ρ's last place: shorter ones would round to no step
+                    // at all, and a jump (a wall) would be retried there
+                    // without end)
+                    let ulps = 8.0 * f64::EPSILON * rho.abs();
                     if gap > opts.step()
                         && !hidden
                         && st.halvings < 40
-                        && (rn - rho) > 1e-9 * self.fp_at(a)
+                        && (rn - rho) > (1e-9 * self.fp_at(a)).max(2.0 * ulps)
                     {
-                        st.hstep = (rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5);
+                        st.hstep =
+                            ((rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5)).max(ulps);
                         st.h_max = st.hstep;
                         st.halvings += 1;
                         continue;

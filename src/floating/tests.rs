@@ -997,3 +997,70 @@ fn extreme_zoom_sweeps_stay_bounded() {
         }
     }
 }
+
+/// A wall (floor(u): a jump of the height) seen at a zoom where a pixel is
+/// near the last place of the coordinates: the sweep retries a step that
+/// jumps rows ever shorter, and once did so until the step rounded to
+/// none and the wall was retried in place without end (4 million steps
+/// per column or plane, 48 s for 8×6 pixels, and a blank picture). It is
+/// now a wall: every pixel sees it, in a bounded number of samples. The
+/// same for a pole in perspective.
+#[test]
+fn walls_at_extreme_zoom_are_walls_not_endless_retries() {
+    use crate::source::ExprHeight;
+    let dom = Domain::new(-3.0, 3.0, -2.0, 4.0).unwrap();
+    let f = ExprHeight::new("floor(u) + 0.2*v", &[], 0.0, dom).unwrap();
+    let target = DVec3::new(1.874066031997815, 0.9340173249050849, -1.8485922892370181);
+    let views = [
+        Projection::Orthographic { view_height: 1e-10 },
+        Projection::Perspective {
+            distance: 0.001,
+            fov: 1e-4,
+        },
+        Projection::Perspective {
+            distance: 0.001,
+            fov: 1e-5,
+        },
+    ];
+    for projection in views {
+        let view = View {
+            elevation: 0.01,
+            azimuth: -58.65299905027592,
+            projection,
+            target,
+        };
+        let b = render_small(&f, &view, &FloatingOptions::default());
+        let seen = b.mask.as_ref().unwrap().iter().filter(|&&m| m).count();
+        let samples = stat(&b, "sweep_samples");
+        assert_eq!(seen, 64 * 48, "{projection:?}: {seen} pixels seen");
+        assert!(stat(&b, "walls") > 0.0, "{projection:?}: no wall");
+        assert!(
+            samples < 100.0 * 64.0 * 48.0,
+            "{projection:?}: {samples} sweep samples"
+        );
+    }
+    // A pole (tan(u) at u = π/2) seen from 10⁴ away through a field of
+    // view of 4e-5°: every ray crosses it inside the domain. Beside the
+    // pole a sample's distance from the eye grows without bound, and steps
+    // sized by it overshot the pole again and again (212 M samples, none
+    // of the picture seen); beyond the rays' elevations the step is now
+    // sized by the rays' own footprint there.
+    let tan = ExprHeight::new("tan(u)", &[], 0.0, dom).unwrap();
+    let view = View {
+        elevation: 0.01,
+        azimuth: 244.835,
+        projection: Projection::Perspective {
+            distance: 1e4,
+            fov: 4.25e-5,
+        },
+        target: DVec3::new(2.6178, -1.187, 1.2996),
+    };
+    let b = render_small(&tan, &view, &FloatingOptions::default());
+    let seen = b.mask.as_ref().unwrap().iter().filter(|&&m| m).count();
+    let samples = stat(&b, "sweep_samples");
+    assert_eq!(seen, 64 * 48, "pole: {seen} pixels seen");
+    assert!(
+        samples < 100.0 * 64.0 * 48.0,
+        "pole: {samples} sweep samples"
+    );
+}
