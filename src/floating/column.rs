@@ -209,6 +209,14 @@ pub(super) fn invisible_run(min_len: f64, max_len: f64, invisible: impl Fn(f64) 
     }
 }
 
+/// The shortest step a sweep retries at parameter `x`: a few units of its
+/// last place (shorter steps would round to none, and a jump (a wall)
+/// would be retried in place without end). Both projections.
+#[inline]
+pub(super) fn retry_floor(x: f64) -> f64 {
+    8.0 * f64::EPSILON * x.abs()
+}
+
 /// Bounds (lo, hi) of f over the (u, v) box of a stretch with ends p and q
 /// (lo > hi: no finite value there); None where unknown or not a number.
 pub(super) fn stretch_bound(
@@ -1085,10 +1093,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         let (a, b) = (&*pa, &*pb);
                         let gap = (self.clamp_row(b.rho) - self.clamp_row(a.rho)).abs();
                         let hidden = gap > step_px && self.hidden(a, b);
-                        // (down to a few units of the last place of τ and
-                        // t: shorter steps would round to none, and a jump
-                        // (a wall) would be retried there without end)
-                        let ulps = 8.0 * f64::EPSILON * tau.abs().max(tt(tau).abs());
+                        let ulps = retry_floor(tau.abs().max(tt(tau).abs()));
                         if gap > step_px
                             && !hidden
                             && halvings < 40
@@ -1453,10 +1458,10 @@ impl<'c, 'a> Sweep<'c, 'a> {
         // where the two sides' values would interpolate to (beside a pole
         // of tan(u), heights of ±10¹⁶: a depth and (u, v) far outside).
         let at_wall = if wall { self.wall_hit(a, b, row) } else { None };
-        let (z, wb) = match herm {
-            Some((tau, t, w)) => (t * fr.d_t + w * fr.d_w, tau),
-            None if at_wall.is_some() => (at_wall.expect("wall hit").0, 0.5),
-            None => {
+        let (z, wb) = match (herm, at_wall) {
+            (Some((tau, t, w)), _) => (t * fr.d_t + w * fr.d_w, tau),
+            (None, Some((z, _))) => (z, 0.5),
+            (None, None) => {
                 let tau = chord_tau(a, b, row);
                 // Perspective-correct weights (1/z is linear on the screen).
                 if fr.persp {

@@ -2788,8 +2788,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.seg_inv = 1.0 / len;
     }
 
-    /// World size of a pixel at sample `s`.
-    #[inline]
     /// The footprint of the bin's rays at horizontal distance `st.rho`:
     /// that distance over the cosine of their steepest elevation, over the
     /// focal length.
@@ -2800,6 +2798,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.rho * sec / self.ctx.cam.focal
     }
 
+    /// World size of a pixel at sample `s`.
+    #[inline]
     fn fp_at(&self, s: &Sample) -> f64 {
         let e = self.ctx.cam.eye;
         ((s.uv.x - e.x).powi(2) + (s.uv.y - e.y).powi(2) + s.wr * s.wr).sqrt() / self.ctx.cam.focal
@@ -2852,11 +2852,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     let clamp = |r: f64| r.max(st.th_lo - 2.0).min(st.th_hi + 2.0);
                     let gap = (clamp(b.rho) - clamp(a.rho)).abs() * st.rate.max(rb);
                     let hidden = gap > opts.step() && (st.skipping || self.hidden(a, b));
-                    // (a step is retried shorter down to a few units of
-                    // ρ's last place: shorter ones would round to no step
-                    // at all, and a jump (a wall) would be retried there
-                    // without end)
-                    let ulps = 8.0 * f64::EPSILON * rho.abs();
+                    let ulps = super::column::retry_floor(rho);
                     if gap > opts.step()
                         && !hidden
                         && st.halvings < 40

@@ -959,31 +959,27 @@ fn extreme_zoom_sweeps_stay_bounded() {
     let grid =
         HeightGrid::new(z.clone(), ny, nx, 0.0, du, 0.0, dv, Interpolation::Bilinear).unwrap();
     let cubic = HeightGrid::new(z, ny, nx, 0.0, du, 0.0, dv, Interpolation::Bicubic).unwrap();
-    let ortho = |elevation: f64, azimuth: f64, target: (f64, f64, f64)| View {
+    let view = |projection, elevation, azimuth, (x, y, z): (f64, f64, f64)| View {
         elevation,
         azimuth,
-        projection: Projection::Orthographic { view_height: 1e-6 },
-        target: DVec3::new(target.0, target.1, target.2),
+        projection,
+        target: DVec3::new(x, y, z),
     };
+    let ortho = Projection::Orthographic { view_height: 1e-6 };
     // (a field of view of 1e-4°: some 10⁸ azimuth bins around the circle,
     // of which the picture meets a few hundred)
-    let persp = |elevation: f64, azimuth: f64, target: (f64, f64, f64)| View {
-        elevation,
-        azimuth,
-        projection: Projection::Perspective {
-            distance: 6.0,
-            fov: 1e-4,
-        },
-        target: DVec3::new(target.0, target.1, target.2),
+    let persp = Projection::Perspective {
+        distance: 6.0,
+        fov: 1e-4,
     };
     let views = [
-        ortho(0.0, -323.0, (0.79, -0.89, 2.34)),
-        ortho(5.0, 65.0, (1.0, 1.3, 2.7)),
+        view(ortho, 0.0, -323.0, (0.79, -0.89, 2.34)),
+        view(ortho, 5.0, 65.0, (1.0, 1.3, 2.7)),
         // (straight down into the hole: nothing to see)
-        ortho(89.99, -224.3, (2.12, 1.12, 2.05)),
-        ortho(23.4, -224.6, (0.3, 0.2, 0.5)),
-        persp(10.0, 60.0, (1.0, 1.3, 2.7)),
-        persp(0.0, -30.0, (0.79, -0.89, 2.34)),
+        view(ortho, 89.99, -224.3, (2.12, 1.12, 2.05)),
+        view(ortho, 23.4, -224.6, (0.3, 0.2, 0.5)),
+        view(persp, 10.0, 60.0, (1.0, 1.3, 2.7)),
+        view(persp, 0.0, -30.0, (0.79, -0.89, 2.34)),
     ];
     let fields: [&dyn HeightField; 3] = [&expr, &grid, &cubic];
     for (fi, field) in fields.iter().enumerate() {

@@ -61,9 +61,6 @@ impl Axis {
         (a.min(b), a.max(b))
     }
 
-    /// Cell index (0..n−2) and fraction in [0, 1] of coordinate x, or None
-    /// outside.
-    #[inline]
     /// An interval of coordinates in cells (ascending, cell k from k to
     /// k + 1).
     fn local(&self, (x0, x1): (f64, f64)) -> (f64, f64) {
@@ -71,6 +68,9 @@ impl Axis {
         (s0.min(s1), s0.max(s1))
     }
 
+    /// Cell index (0..n−2) and fraction in [0, 1] of coordinate x, or None
+    /// outside.
+    #[inline]
     fn locate(&self, x: f64) -> Option<(usize, f64)> {
         let s = (x - self.x0) / self.dx;
         let top = (self.n - 1) as f64;
@@ -386,6 +386,9 @@ pub fn keys(t: f64) -> ([f64; 4], [f64; 4]) {
     )
 }
 
+/// Cells rows i0..=i1, columns j0..=j1 of a grid: (i0, i1, j0, j1).
+type Cells = (usize, usize, usize, usize);
+
 /// The power-basis coefficients (of s⁰ … s³) of Σ_b w_b(s) z_b, Keys'
 /// weights ([`keys`]) applied to four samples.
 #[inline]
@@ -500,6 +503,26 @@ impl HeightGrid {
         )
     }
 
+    /// The cells rows i0..=i1, columns j0..=j1 (`cells`) that the box `u` ×
+    /// `v` touches, each with the box's part of it in cell coordinates:
+    /// (i, j, (s0, s1), (t0, t1)), s along u and t along v, each in [0, 1].
+    fn cell_parts(
+        &self,
+        (i0, i1, j0, j1): Cells,
+        u: (f64, f64),
+        v: (f64, f64),
+    ) -> impl Iterator<Item = (usize, usize, (f64, f64), (f64, f64))> {
+        let ((su0, su1), (sv0, sv1)) = (self.u.local(u), self.v.local(v));
+        let part = |a: f64, b: f64, k: usize| {
+            (
+                (a - k as f64).clamp(0.0, 1.0),
+                (b - k as f64).clamp(0.0, 1.0),
+            )
+        };
+        (i0..=i1)
+            .flat_map(move |i| (j0..=j1).map(move |j| (i, j, part(su0, su1, j), part(sv0, sv1, i))))
+    }
+
     /// The bilinear interpolant's range over the box `u` × `v`, which
     /// touches cells rows i0..=i1, columns j0..=j1 (None: one of them is a
     /// hole). Over each cell's part of the box a bilinear function takes
@@ -507,37 +530,28 @@ impl HeightGrid {
     /// its one critical point a saddle), so the range is exact, widened
     /// only for rounding (of the values, and of positions by 1e-12 of a
     /// cell).
-    fn bilinear_range_in(
-        &self,
-        (i0, i1, j0, j1): (usize, usize, usize, usize),
-        u: (f64, f64),
-        v: (f64, f64),
-    ) -> Option<(f64, f64)> {
-        let ((su0, su1), (sv0, sv1)) = (self.u.local(u), self.v.local(v));
+    fn bilinear_range_in(&self, cells: Cells, u: (f64, f64), v: (f64, f64)) -> Option<(f64, f64)> {
         let nx = self.u.n;
         let (mut lo, mut hi, mut step) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
-        for i in i0..=i1 {
-            for j in j0..=j1 {
-                let k = i * nx + j;
-                let (z00, z01, z10, z11) =
-                    (self.z[k], self.z[k + 1], self.z[k + nx], self.z[k + nx + 1]);
-                if [z00, z01, z10, z11].iter().any(|x| x.is_nan()) {
-                    return None;
-                }
-                step = step.max(
-                    (z01 - z00)
-                        .abs()
-                        .max((z11 - z10).abs())
-                        .max((z10 - z00).abs()),
-                );
-                let (jf, if_) = (j as f64, i as f64);
-                for s in [(su0 - jf).clamp(0.0, 1.0), (su1 - jf).clamp(0.0, 1.0)] {
-                    for t in [(sv0 - if_).clamp(0.0, 1.0), (sv1 - if_).clamp(0.0, 1.0)] {
-                        let a = z00 + s * (z01 - z00);
-                        let b = z10 + s * (z11 - z10);
-                        let f = a + t * (b - a);
-                        (lo, hi) = (lo.min(f), hi.max(f));
-                    }
+        for (i, j, ss, ts) in self.cell_parts(cells, u, v) {
+            let k = i * nx + j;
+            let (z00, z01, z10, z11) =
+                (self.z[k], self.z[k + 1], self.z[k + nx], self.z[k + nx + 1]);
+            if [z00, z01, z10, z11].iter().any(|x| x.is_nan()) {
+                return None;
+            }
+            step = step.max(
+                (z01 - z00)
+                    .abs()
+                    .max((z11 - z10).abs())
+                    .max((z10 - z00).abs()),
+            );
+            for s in [ss.0, ss.1] {
+                for t in [ts.0, ts.1] {
+                    let a = z00 + s * (z01 - z00);
+                    let b = z10 + s * (z11 - z10);
+                    let f = a + t * (b - a);
+                    (lo, hi) = (lo.min(f), hi.max(f));
                 }
             }
         }
@@ -554,55 +568,37 @@ impl HeightGrid {
     /// and closes in on its range as the part shrinks (the excess falls
     /// with the square of the part's size). Widened for rounding (of the
     /// values, and of positions by 1e-12 of a cell).
-    fn bicubic_range_in(
-        &self,
-        (i0, i1, j0, j1): (usize, usize, usize, usize),
-        u: (f64, f64),
-        v: (f64, f64),
-    ) -> Option<(f64, f64)> {
-        let ((su0, su1), (sv0, sv1)) = (self.u.local(u), self.v.local(v));
+    fn bicubic_range_in(&self, cells: Cells, u: (f64, f64), v: (f64, f64)) -> Option<(f64, f64)> {
         let w = self.u.n + 2;
         let (mut lo, mut hi, mut size) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
-        for i in i0..=i1 {
-            let (t0, t1) = (
-                (sv0 - i as f64).clamp(0.0, 1.0),
-                (sv1 - i as f64).clamp(0.0, 1.0),
-            );
-            for j in j0..=j1 {
-                let (s0, s1) = (
-                    (su0 - j as f64).clamp(0.0, 1.0),
-                    (su1 - j as f64).clamp(0.0, 1.0),
-                );
-                // The kernel relative to its centre sample (as `sample`
-                // sums it: the weights sum to 1, so constants stay exact).
-                let c = self.ext[(i + 1) * w + j + 1];
-                let mut k = [[0.0; 4]; 4];
-                for (a, row) in k.iter_mut().enumerate() {
-                    let src = &self.ext[(i + a) * w + j..(i + a) * w + j + 4];
-                    for (b, x) in row.iter_mut().enumerate() {
-                        *x = src[b] - c;
-                        if x.is_nan() {
-                            return None;
-                        }
-                        size = size.max(x.abs());
+        for (i, j, (s0, s1), (t0, t1)) in self.cell_parts(cells, u, v) {
+            // The kernel relative to its centre sample (as `sample` sums
+            // it: the weights sum to 1, so constants stay exact).
+            let c = self.ext[(i + 1) * w + j + 1];
+            let mut k = [[0.0; 4]; 4];
+            for (a, row) in k.iter_mut().enumerate() {
+                let src = &self.ext[(i + a) * w + j..(i + a) * w + j + 4];
+                for (b, x) in row.iter_mut().enumerate() {
+                    *x = src[b] - c;
+                    if x.is_nan() {
+                        return None;
                     }
+                    size = size.max(x.abs());
                 }
-                // Along u: each kernel row's cubic in s, on [s0, s1] as a
-                // cubic in x ∈ [0, 1]; then along v the same for each power
-                // of x.
-                let px: [[f64; 4]; 4] =
-                    std::array::from_fn(|a| shifted(keys_poly(&k[a]), s0, s1 - s0));
-                // by[p][q]: the coefficient of x^p, in the Bernstein basis in y.
-                let by: [[f64; 4]; 4] = std::array::from_fn(|p| {
-                    let col = std::array::from_fn(|a| px[a][p]);
-                    to_bernstein(shifted(keys_poly(&col), t0, t1 - t0))
-                });
-                let coef = (0..4).flat_map(|q| to_bernstein(std::array::from_fn(|p| by[p][q])));
-                for x in coef {
-                    (lo, hi) = (lo.min(c + x), hi.max(c + x));
-                }
-                size = size.max(c.abs());
             }
+            // Along u: each kernel row's cubic in s, on [s0, s1] as a cubic
+            // in x ∈ [0, 1]; then along v the same for each power of x.
+            let px: [[f64; 4]; 4] = std::array::from_fn(|a| shifted(keys_poly(&k[a]), s0, s1 - s0));
+            // by[p][q]: the coefficient of x^p, in the Bernstein basis in y.
+            let by: [[f64; 4]; 4] = std::array::from_fn(|p| {
+                let col = std::array::from_fn(|a| px[a][p]);
+                to_bernstein(shifted(keys_poly(&col), t0, t1 - t0))
+            });
+            let coef = (0..4).flat_map(|q| to_bernstein(std::array::from_fn(|p| by[p][q])));
+            for x in coef {
+                (lo, hi) = (lo.min(c + x), hi.max(c + x));
+            }
+            size = size.max(c.abs());
         }
         let m = 1e-11 * (lo.abs().max(hi.abs()) + size) + 1e-9 * (hi - lo) + f64::MIN_POSITIVE;
         Some((lo - m, hi + m))
@@ -612,8 +608,7 @@ impl HeightGrid {
     /// (with 1e-6 of a cell of slack each way for rounding: a point within
     /// it of a cell's edge may be evaluated in the cell beside).
     fn cells(a: &Axis, x0: f64, x1: f64) -> Option<(usize, usize)> {
-        let (s0, s1) = ((x0 - a.x0) / a.dx, (x1 - a.x0) / a.dx);
-        let (s0, s1) = (s0.min(s1), s0.max(s1));
+        let (s0, s1) = a.local((x0, x1));
         if !(s0.is_finite() && s1.is_finite()) {
             return None;
         }
