@@ -241,6 +241,55 @@ def test_poles_are_walls_not_endless_sweeps(kw):
     res = compare(img, ref, view)
     assert res["mask_bad"] == 0 and res["farther_sheet"] == 0, res
     assert res["depth_px_median"] <= 1e-4 and res["depth_px_p99"] <= 1e-3, res
+    # The wall pixels beside the poles lie in the scene: in front of the eye,
+    # their (u, v) in the domain (once a perspective wall pixel took the
+    # chord between heights of ±10¹⁶, which passes behind the eye: depth 0
+    # and the eye's (u, v)). (Orthographic depth is measured from the
+    # target's plane: any sign.)
+    m = img.mask
+    assert np.isfinite(img.depth[m]).all()
+    if view.projection == "perspective":
+        assert (img.depth[m] > 0).all(), np.argwhere(m & ~(img.depth > 0))[:5]
+    (u0, u1), (v0, v1) = dom
+    uv = img.uv[m]
+    assert ((uv[:, 0] >= u0) & (uv[:, 0] <= u1) & (uv[:, 1] >= v0) & (uv[:, 1] <= v1)).all()
+
+
+@pytest.mark.parametrize("kw", [dict(projection="perspective", distance=4.0, fov=50.0, azimuth=az) for az in (90, 70, 115)]
+                         + [dict(projection="perspective", distance=2.5, fov=60.0, azimuth=70),
+                            dict(view_height=2.5, azimuth=70)],
+                         ids=["persp-90", "persp-70", "persp-115", "persp-near", "ortho"])
+def test_wall_pixels_lie_where_their_rays_meet_the_wall(kw):
+    """§5.1: w = 0.5 for u > 0, else 0, has a wall at u = 0 that the
+    surface does not sample. Each pixel whose ray meets that wall (between
+    heights 0.05 and 0.45, a pixel inside its outline) lies where the ray
+    meets it: depth exact to 10⁻³ px, u = 0 to 10⁻⁴ (a perspective pixel
+    lies up to a bin's half width beside the plane it was swept in: it was
+    once placed on the plane's chord across the wall, 0.1–0.3 px off)."""
+    from scipy.ndimage import binary_erosion
+    from fcol.testing.spec_camera import SpecCamera
+
+    W, H = 96, 72
+    view = make_view(dict(kw, elevation=25))
+    s = fcol.Function("0.25*(sign(u) + 1)", domain=((-1, 1), (-1, 1)))
+    img = fcol.render(s, view, W, H, outputs=("depth", "uv", "mask"))
+    assert img.stats["walls"] > 0
+    cam = SpecCamera.from_view(view, W, H)
+    O, D = cam.rays()
+    O, D = np.array(np.broadcast_to(O, D.shape)), np.array(D)
+    if not cam.persp:
+        O = O - 50 * D  # (an orthographic ray is a whole line)
+    lam = -O[..., 0] / D[..., 0]  # where each ray meets the plane u = 0
+    P = O + lam[..., None] * D
+    wall = (D[..., 0] > 0) & (O[..., 0] < 0) & (P[..., 2] > 0.05) & (P[..., 2] < 0.45) & (np.abs(P[..., 1]) < 0.9)
+    wall = binary_erosion(wall)
+    assert wall.sum() > 100
+    depth = (P - cam.origin) @ cam.d
+    pix = depth / cam.F if cam.persp else np.full_like(depth, cam.p)
+    assert img.mask[wall].all()
+    err = np.abs(img.depth - depth)[wall] / pix[wall]
+    assert err.max() <= 1e-3, (np.median(err), err.max())
+    assert np.abs(img.uv[wall][:, 0]).max() <= 1e-4
 
 
 def test_step_constant_nan_and_scales():

@@ -2106,6 +2106,10 @@ struct RadialSweep<'c, 'a> {
     out: Vec<(usize, Pixel)>,
     stats: ColumnStats,
     jobs: Vec<BinJob>,
+    /// The wall pixels (§5.1), each placed where its own ray meets the
+    /// wall ([`Self::solve_walls`]): `lam` the wall's distance at the
+    /// plane's samples, `lo`..`hi` the two samples' distances along the ray.
+    walls: Vec<BinJob>,
     /// Buffers of the batched solve.
     solver: super::refine::NewtonScratch,
     /// The jobs whose Newton failed (indices), for the march.
@@ -2176,6 +2180,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             out: Vec::with_capacity(rays.len()),
             stats: ColumnStats::default(),
             jobs: Vec::with_capacity(if ctx.fallback { rays.len() } else { 0 }),
+            walls: Vec::new(),
             solver: Default::default(),
             failed: Vec::new(),
             checks: SideChecks::default(),
@@ -2215,6 +2220,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.out.clear();
         self.stats = ColumnStats::default();
         self.jobs.clear();
+        self.walls.clear();
         self.ppr = 1.5 * self.ctx.cam.focal;
         self.rate = PxRate::default();
         self.srange = (-1.0, 1.0);
@@ -2914,6 +2920,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// grazing).
     #[inline(never)]
     fn solve(&mut self) {
+        self.solve_walls();
         if self.jobs.is_empty() {
             return;
         }
@@ -3031,6 +3038,47 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if !ctx.opts.coverage && !self.missed.is_empty() {
             self.out.retain(|(_, p)| p.set);
         }
+    }
+
+    /// The wall pixels (§5.1): the pixel's own ray marched from before the
+    /// nearer of the wall's two samples to beyond the farther (each at its
+    /// horizontal distance along the ray, widened by eight footprints: the
+    /// ray lies up to a bin's half width beside the plane, where the wall
+    /// may stand nearer or farther). A crossing where the surface meets the
+    /// ray (a steep sheet, as beside a pole of tan u) is an exact hit; one
+    /// where it jumps past it (a step) places the pixel on the wall there,
+    /// its wall shading kept; with none, the pixel stays where the ray
+    /// passes the wall's place in the plane.
+    fn solve_walls(&mut self) {
+        if self.walls.is_empty() {
+            return;
+        }
+        let e = self.ctx.cam.eye;
+        let d = self.ctx.cam.d;
+        let walls = std::mem::take(&mut self.walls);
+        for j in &walls {
+            // (from either side: which side of a jump the ray meets first
+            // is not the span's (beside a pole the far sample lies far
+            // below the near one, yet the ray meets the rising sheet from
+            // above); the nearer crossing)
+            let (lo, hi) = (j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp);
+            let up = self.march(e, j.dir, lo, hi, j.fp, 1);
+            let down = self.march(e, j.dir, lo, hi, j.fp, -1);
+            let hit = match (up, down) {
+                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
+                (a, b) => a.or(b),
+            };
+            let Some((l, hs)) = hit else { continue };
+            let q = e + l * j.dir;
+            if (q.z - hs.f).abs() <= j.fp {
+                self.put_hit(j, l, &hs);
+            } else {
+                let px = &mut self.out[j.slot as usize].1;
+                px.depth = (q - e).dot(d);
+                px.uv = DVec2::new(q.x, q.y);
+            }
+        }
+        self.walls = walls;
     }
 
     /// The exact hit at distance `l` along job `j`'s ray into its pixel.
@@ -3218,6 +3266,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 side: topo,
             });
         }
+        if wall {
+            self.place_on_wall(&mut px, sp, dir, topo);
+        }
         if wall && ctx.opts.corrections.walls {
             let hz = DVec3::new(self.eh.x, self.eh.y, 0.0);
             let wn = if b.wr > a.wr { -hz } else { hz };
@@ -3230,6 +3281,37 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             px.inten = ctx.shading.intensity(px.n, -dir);
         }
         px
+    }
+
+    /// A wall pixel `px` of span `sp` (ray `dir`) placed where its ray
+    /// passes the wall's place in the plane, midway between the two
+    /// samples' horizontal distances (not between their points: beside a
+    /// pole of tan u, heights of ±10¹⁶, whose chord passes behind the eye),
+    /// and queued for [`Self::solve_walls`]. Unchanged where the ray is
+    /// (nearly) vertical: it runs along the wall and shows no face of it.
+    fn place_on_wall(&mut self, px: &mut Pixel, sp: &SpanConst, dir: DVec3, topo: i8) {
+        let cam = self.ctx.cam;
+        let e = DVec2::new(cam.eye.x, cam.eye.y);
+        let dh = DVec2::new(dir.x, dir.y).length();
+        let ha = (DVec2::new(sp.pa.x, sp.pa.y) - e).length();
+        let hb = (DVec2::new(sp.pb.x, sp.pb.y) - e).length();
+        let (la, lb) = (ha / dh, hb / dh);
+        if !(dh > 1e-9 && la.is_finite() && lb.is_finite()) {
+            return;
+        }
+        let lam = 0.5 * (la + lb);
+        let q = cam.eye + lam * dir;
+        px.depth = (q - cam.eye).dot(cam.d);
+        px.uv = DVec2::new(q.x, q.y);
+        self.walls.push(BinJob {
+            dir,
+            lam,
+            lo: la.min(lb),
+            hi: la.max(lb),
+            fp: lam.max(cam.near) / cam.focal,
+            slot: self.out.len() as u32,
+            side: topo,
+        });
     }
 
     /// Fallback of the batched Newton ([`Self::solve`]): march the pixel's ray over [lo, hi]
