@@ -2107,8 +2107,9 @@ struct RadialSweep<'c, 'a> {
     stats: ColumnStats,
     jobs: Vec<BinJob>,
     /// The wall pixels (§5.1), each placed where its own ray meets the
-    /// wall ([`Self::solve_walls`]): `lam` the wall's distance at the
-    /// plane's samples, `lo`..`hi` the two samples' distances along the ray.
+    /// wall ([`Self::solve_walls`]): `lo`..`hi` the two samples' horizontal
+    /// distances along the ray (`lam` their midpoint, where the pixel was
+    /// put first).
     walls: Vec<BinJob>,
     /// Buffers of the batched solve.
     solver: super::refine::NewtonScratch,
@@ -3058,16 +3059,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let walls = std::mem::take(&mut self.walls);
         for j in &walls {
             // (from either side: which side of a jump the ray meets first
-            // is not the span's (beside a pole the far sample lies far
+            // is not the span's: beside a pole the far sample lies far
             // below the near one, yet the ray meets the rising sheet from
-            // above); the nearer crossing)
-            let (lo, hi) = (j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp);
-            let up = self.march(e, j.dir, lo, hi, j.fp, 1);
-            let down = self.march(e, j.dir, lo, hi, j.fp, -1);
-            let hit = match (up, down) {
-                (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
-                (a, b) => a.or(b),
-            };
+            // above)
+            let hit = self.march(e, j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, 0);
             let Some((l, hs)) = hit else { continue };
             let q = e + l * j.dir;
             if (q.z - hs.f).abs() <= j.fp {
@@ -3317,7 +3312,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// Fallback of the batched Newton ([`Self::solve`]): march the pixel's ray over [lo, hi]
     /// in half-footprint steps and solve the first crossing ([`Self::crossing`]).
     /// The march starts where the ray is on the seen side (`side`) of the
-    /// surface, stepping back if needed.
+    /// surface, stepping back if needed; `side` 0: on whichever side the
+    /// ray is where the march starts (the first crossing either way).
     fn march(
         &mut self,
         e: DVec3,
@@ -3338,7 +3334,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let hs = ctx.field.eval(p.x, p.y);
             hs.is_finite().then_some(p.z - hs.f)
         };
-        let outside = side as f64;
+        let mut outside = side as f64;
         // The part of the ray over the domain (a ray that grazes a corner
         // of it spends only a few footprints there).
         let (l_in, l_out) =
@@ -3364,6 +3360,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut ga = h(self, la);
         for _ in 0..3 {
             match ga {
+                Some(g) if outside == 0.0 && g != 0.0 => {
+                    outside = g.signum();
+                    break;
+                }
                 Some(g) if g * outside > 0.0 => break,
                 _ => {
                     if la <= l_in {
