@@ -35,14 +35,23 @@ macro_rules! map1 {
     };
 }
 
+/// Whether some x of `a` fails `ok` (one vectorised scan, so that a batch
+/// with every argument in range skips the scalar fix-up loop).
+#[inline(always)]
+fn any_fails(a: &[f64], ok: impl Fn(f64) -> bool) -> bool {
+    a.iter().fold(false, |bad, &x| bad | !ok(x))
+}
+
 /// Vectorisable pass with the fast kernel, then a scalar fix-up of the
 /// (rare) arguments outside its range.
 macro_rules! fast1 {
     ($a:expr, $d:expr, $fast:expr, $ok:expr, $slow:expr) => {{
         map1!($a, $d, |x| $fast(x));
-        for (d, &x) in $d.iter_mut().zip($a) {
-            if !$ok(x) {
-                *d = $slow(x);
+        if any_fails($a, $ok) {
+            for (d, &x) in $d.iter_mut().zip($a) {
+                if !$ok(x) {
+                    *d = $slow(x);
+                }
             }
         }
     }};
@@ -69,6 +78,9 @@ pub fn un(op: Un, a: &[f64], d: &mut [f64]) {
 pub fn sin_cos(a: &[f64], s: &mut [f64], c: &mut [f64]) {
     for ((s, c), &x) in s.iter_mut().zip(c.iter_mut()).zip(a) {
         (*s, *c) = fm::sin_cos_fast(x);
+    }
+    if !any_fails(a, fm::sin_cos_ok) {
+        return;
     }
     for ((s, c), &x) in s.iter_mut().zip(c.iter_mut()).zip(a) {
         if !fm::sin_cos_ok(x) {

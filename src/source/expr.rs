@@ -237,12 +237,9 @@ impl HeightField for ExprHeight {
         }
         self.grad.eval_chunks(u, v, |start, cols| {
             let (f, fu, fv) = (cols[0], cols[1], cols[2]);
-            for (i, o) in out[start..start + f.len()].iter_mut().enumerate() {
-                *o = HeightSample {
-                    f: f[i],
-                    fu: fu[i],
-                    fv: fv[i],
-                };
+            let vals = f.iter().zip(fu).zip(fv);
+            for (o, ((&f, &fu), &fv)) in out[start..start + f.len()].iter_mut().zip(vals) {
+                *o = HeightSample { f, fu, fv };
             }
         });
     }
