@@ -42,8 +42,11 @@ pub struct HeightSample {
 }
 
 impl HeightSample {
+    #[inline]
     pub fn is_finite(&self) -> bool {
-        self.f.is_finite() && self.fu.is_finite() && self.fv.is_finite()
+        // x − x is 0 for finite x and NaN otherwise: one comparison for the
+        // three (cheaper than three class tests).
+        (self.f - self.f) + (self.fu - self.fu) + (self.fv - self.fv) == 0.0
     }
     /// Unit upper-side normal (−f_u, −f_v, 1)/‖·‖ (SPEC §2).
     #[inline]

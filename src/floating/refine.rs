@@ -26,13 +26,13 @@ pub struct Job {
 /// Buffers of the batched Newton ([`newton`]), reused from call to call.
 #[derive(Debug, Default)]
 pub struct NewtonScratch {
-    lam: Vec<f64>,
+    /// The jobs still running, in job order, and their λ.
     active: Vec<u32>,
-    next: Vec<u32>,
-    live: Vec<u32>,
+    lam: Vec<f64>,
+    /// The point (u, v, height) of each active job on its ray; grown only
+    /// (the first `active.len()` are the round's).
     u: Vec<f64>,
     v: Vec<f64>,
-    /// The height of each live job's point on its ray.
     pz: Vec<f64>,
     hs: Vec<HeightSample>,
     failed: Vec<u32>,
@@ -44,6 +44,15 @@ impl NewtonScratch {
     pub(crate) fn failed(&self) -> &[u32] {
         &self.failed
     }
+}
+
+/// `buf` at least `n` long (grown only), its first `n` elements.
+#[inline(always)]
+fn at_least<T: Copy + Default>(buf: &mut Vec<T>, n: usize) -> &mut [T] {
+    if buf.len() < n {
+        buf.resize(n, T::default());
+    }
+    &mut buf[..n]
 }
 
 /// The batched Newton on pixel rays shared by every caller: job k's ray is
@@ -68,11 +77,10 @@ pub(crate) fn newton(
     mut hit: impl FnMut(usize, f64, DVec3, &HeightSample),
 ) -> u64 {
     let dom = ctx.frame.domain;
+    let tol = ctx.opts.refine_tol;
     let NewtonScratch {
         lam,
         active,
-        next,
-        live,
         u,
         v,
         pz,
@@ -80,41 +88,49 @@ pub(crate) fn newton(
         failed,
     } = sc;
     failed.clear();
-    lam.clear();
-    lam.extend((0..n).map(&seed));
     active.clear();
     active.extend(0..n as u32);
+    lam.clear();
+    lam.extend((0..n).map(&seed));
     let mut evals = 0u64;
     for _ in 0..ctx.opts.refine_iters {
         if active.is_empty() {
             break;
         }
-        u.clear();
-        v.clear();
-        pz.clear();
-        live.clear();
-        for &k in active.iter() {
+        // The points in one pass over preallocated buffers; those outside
+        // the domain (rare) fail, the others closed up after it.
+        let mut m = active.len();
+        let (u, v, pz) = (at_least(u, m), at_least(v, m), at_least(pz, m));
+        let mut outside = false;
+        let pts = u.iter_mut().zip(&mut *v).zip(&mut *pz);
+        for ((&k, &l), ((u, v), z)) in active.iter().zip(lam.iter()).zip(pts) {
             let (o, dir) = ray(k as usize);
-            let p = o + lam[k as usize] * dir;
-            if dom.contains(p.x, p.y) {
-                u.push(p.x);
-                v.push(p.y);
-                pz.push(p.z);
-                live.push(k);
-            } else {
-                failed.push(k);
+            let p = o + l * dir;
+            outside |= !dom.contains(p.x, p.y);
+            (*u, *v, *z) = (p.x, p.y, p.z);
+        }
+        if outside {
+            let mut w = 0;
+            for i in 0..m {
+                if dom.contains(u[i], v[i]) {
+                    (u[w], v[w], pz[w]) = (u[i], v[i], pz[i]);
+                    (active[w], lam[w]) = (active[i], lam[i]);
+                    w += 1;
+                } else {
+                    failed.push(active[i]);
+                }
             }
+            m = w;
         }
-        // Grown only: a height field's batch writes every element.
-        if hs.len() < live.len() {
-            hs.resize(live.len(), HeightSample::default());
-        }
-        let hs = &mut hs[..live.len()];
+        let (u, v, pz) = (&u[..m], &v[..m], &pz[..m]);
+        let hs = at_least(hs, m);
         ctx.field.eval_batch(u, v, hs);
-        evals += live.len() as u64;
-        next.clear();
-        for ((&k, h), &pz) in live.iter().zip(hs.iter()).zip(pz.iter()) {
-            let k = k as usize;
+        evals += m as u64;
+        // The jobs still moving closed up at the front of `active` and
+        // `lam` (in order).
+        let mut kept = 0;
+        for (i, (h, &pz)) in hs.iter().zip(pz).enumerate() {
+            let k = active[i] as usize;
             if !h.is_finite() {
                 failed.push(k as u32);
                 continue;
@@ -123,18 +139,18 @@ pub(crate) fn newton(
             let (lo, hi, fp) = bracket(k);
             let g = pz - h.f;
             let gp = dir.z - (h.fu * dir.x + h.fv * dir.y);
-            if gp == 0.0 || !gp.is_finite() {
+            // (gp − gp is 0 exactly when gp is finite)
+            if !(gp != 0.0 && gp - gp == 0.0) {
                 failed.push(k as u32);
                 continue;
             }
             let dl = g / gp;
-            let l = lam[k] - dl;
+            let l = lam[i] - dl;
             if !(l >= lo && l <= hi) {
                 failed.push(k as u32);
                 continue;
             }
-            lam[k] = l;
-            if dl.abs() <= ctx.opts.refine_tol * fp {
+            if dl.abs() <= tol * fp {
                 let q = o + l * dir;
                 if !dom.contains(q.x, q.y) {
                     failed.push(k as u32);
@@ -142,10 +158,12 @@ pub(crate) fn newton(
                 }
                 hit(k, l, q, h);
             } else {
-                next.push(k as u32);
+                (active[kept], lam[kept]) = (k as u32, l);
+                kept += 1;
             }
         }
-        std::mem::swap(active, next);
+        active.truncate(kept);
+        lam.truncate(kept);
     }
     failed.extend_from_slice(active);
     evals
