@@ -484,7 +484,14 @@ impl Program {
                 let n = (u.len() - start).min(stride);
                 regs[..n].copy_from_slice(&u[start..start + n]);
                 regs[stride..stride + n].copy_from_slice(&v[start..start + n]);
-                self.run_chunk(regs, n, stride);
+                // Whole vectors (stride is a multiple of 4): the lanes past
+                // n repeat the last point, so the loops' scalar remainders
+                // never run (and those lanes, never read, need no fix-up
+                // that a real lane does not).
+                let n4 = n.next_multiple_of(4);
+                regs[n..n4].fill(u[start + n - 1]);
+                regs[stride + n..stride + n4].fill(v[start + n - 1]);
+                self.run_chunk(regs, n4, stride);
                 let col = |s: u32| &regs[s as usize * stride..s as usize * stride + n];
                 if self.outputs.len() <= MAX_INLINE_OUT {
                     let mut cols = [empty; MAX_INLINE_OUT];
