@@ -75,21 +75,28 @@ impl Shading {
     /// direction `to_eye` from the point towards the viewer.
     #[inline]
     pub fn intensity(&self, n: DVec3, to_eye: DVec3) -> f64 {
-        // Two-sided: turn the normal to face the viewer.
-        let c = n.dot(to_eye);
-        let n = if c < 0.0 { -n } else { n };
+        self.intensity_cos(n, to_eye, n.dot(to_eye))
+    }
+
+    /// [`Self::intensity`] given `c` = n·to_eye, for callers that have it
+    /// (−(d·n) for to_eye = −d is the same value, but for the sign of a
+    /// zero, which the intensity does not depend on).
+    #[inline]
+    pub fn intensity_cos(&self, n: DVec3, to_eye: DVec3, c: f64) -> f64 {
+        // Two-sided: the normal turned to face the viewer.
+        let facing = || if c < 0.0 { -n } else { n };
         let (l, nl) = match self.light {
             // N·L with L = V is |c|, bit for bit (negating a product or a
             // sum is exact).
             Light::Headlight => (to_eye, if c < 0.0 { -c } else { c }),
             Light::Directional(l) => {
                 let l = l.normalize();
-                (l, n.dot(l))
+                (l, facing().dot(l))
             }
         };
         let mut i = self.ambient + self.diffuse * nl.max(0.0);
         if self.specular > 0.0 && nl > 0.0 {
-            let r = 2.0 * nl * n - l;
+            let r = 2.0 * nl * facing() - l;
             i += self.specular * r.dot(to_eye).max(0.0).powf(self.shininess);
         }
         i

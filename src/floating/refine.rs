@@ -228,7 +228,7 @@ pub fn finish(ctx: &Ctx<'_>, px: &mut Pixel, dir: DVec3, depth: f64, uv: DVec2, 
         px.side = if c > 0.0 { 1 } else { -1 };
     }
     if ctx.opts.shading == ShadingMode::Normal {
-        px.inten = ctx.shading.intensity(px.n, -dir);
+        px.inten = ctx.shading.intensity_cos(px.n, -dir, c);
     }
 }
 
