@@ -33,6 +33,14 @@ impl Domain {
     }
 }
 
+/// x − x: 0 for finite x, NaN for ±∞ and NaN (x is finite exactly when
+/// this is 0: a test without class checks, and sums of it test several).
+#[inline(always)]
+#[allow(clippy::eq_op)]
+pub(crate) fn finite_zero(x: f64) -> f64 {
+    x - x
+}
+
 /// f and its first partial derivatives at a point.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct HeightSample {
@@ -44,9 +52,8 @@ pub struct HeightSample {
 impl HeightSample {
     #[inline]
     pub fn is_finite(&self) -> bool {
-        // x − x is 0 for finite x and NaN otherwise: one comparison for the
-        // three (cheaper than three class tests).
-        (self.f - self.f) + (self.fu - self.fu) + (self.fv - self.fv) == 0.0
+        // One comparison for the three (cheaper than three class tests).
+        finite_zero(self.f) + finite_zero(self.fu) + finite_zero(self.fv) == 0.0
     }
     /// Unit upper-side normal (−f_u, −f_v, 1)/‖·‖ (SPEC §2).
     #[inline]

@@ -6,7 +6,7 @@
 
 use super::column::{Ctx, Pixel};
 use super::ShadingMode;
-use crate::surface::HeightSample;
+use crate::surface::{finite_zero, HeightSample};
 use glam::{DVec2, DVec3};
 
 /// One pixel to solve.
@@ -139,8 +139,7 @@ pub(crate) fn newton(
             let (lo, hi, fp) = bracket(k);
             let g = pz - h.f;
             let gp = dir.z - (h.fu * dir.x + h.fv * dir.y);
-            // (gp − gp is 0 exactly when gp is finite)
-            if !(gp != 0.0 && gp - gp == 0.0) {
+            if !(gp != 0.0 && finite_zero(gp) == 0.0) {
                 failed.push(k as u32);
                 continue;
             }
