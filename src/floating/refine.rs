@@ -110,8 +110,11 @@ pub(crate) fn newton(
             (*u, *v, *z) = (p.x, p.y, p.z);
         }
         if outside {
-            let mut w = 0;
-            for i in 0..m {
+            // (those before the first point outside stay where they are)
+            let first = (0..m).position(|i| !dom.contains(u[i], v[i]));
+            let first = first.unwrap_or(m);
+            let mut w = first;
+            for i in first..m {
                 if dom.contains(u[i], v[i]) {
                     (u[w], v[w], pz[w]) = (u[i], v[i], pz[i]);
                     (active[w], lam[w]) = (active[i], lam[i]);
