@@ -2487,6 +2487,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         Some(self.finish(rho, uv, hs))
     }
 
+    #[inline(always)]
     fn finish(&self, rho: f64, uv: DVec2, hs: HeightSample) -> Sample {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
@@ -3233,19 +3234,24 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 trusted = false;
             }
         }
-        let n_i = m.normalize_or(a.n);
-        let q0 = e + lam0 * dir;
         let topo = sp.topo;
         let mut px = Pixel {
             set: true,
             side: topo,
-            depth: (q0 - e).dot(cam.d),
-            n: n_i,
-            uv: DVec2::new(q0.x, q0.y),
             inten: a.inten + tau * (b.inten - a.inten),
             cover: 1.0,
+            ..Pixel::default()
         };
         let queued = !wall && (ctx.refine || (ctx.fallback && !trusted));
+        // A queued pixel takes its place and normal from its solve (one
+        // whose solve fails is dropped, see [`Self::solve`]): interpolated
+        // only where they may be kept (with coverage, or not queued).
+        if !queued || ctx.opts.coverage {
+            let q0 = e + lam0 * dir;
+            px.depth = (q0 - e).dot(cam.d);
+            px.n = m.normalize_or(a.n);
+            px.uv = DVec2::new(q0.x, q0.y);
+        }
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
