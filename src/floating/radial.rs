@@ -1520,6 +1520,8 @@ impl<'b> Runs<'b> {
         gs.dy.resize(w, 0.0);
         gs.dz.resize(w, 0.0);
         gs.th.resize(w, 0.0);
+        gs.edges.clear();
+        gs.edges.extend((g0..=g1).map(|b| self.bins.edge(b)));
         // A group as wide as a quarter turn or more: every pixel tested.
         let whole = self.exact_only || 4 * nl >= self.bins.n;
         let tol = self.tol;
@@ -1585,11 +1587,12 @@ impl<'b> Runs<'b> {
             // The walk starts at the bin of the run's first column: the
             // lower of the run's bins when the columns go counter-clockwise
             // (L_e grows with the column), else the upper.
-            let mut b = if e0.x * self.r.y - e0.y * self.r.x > 0.0 {
-                g0 + b0
+            let mut lb = if e0.x * self.r.y - e0.y * self.r.x > 0.0 {
+                b0
             } else {
-                g0 + b1
+                b1
             };
+            let edges = &gs.edges[..=nl];
             for (m, (((&dx, &dy), &dz), &theta)) in dxs
                 .iter()
                 .zip(dys.iter())
@@ -1597,14 +1600,44 @@ impl<'b> Runs<'b> {
                 .zip(ths.iter())
                 .enumerate()
             {
-                b = self.bins.near(b, dx, dy);
-                if let Some(list) = gs.lists[..nl].get_mut(b.wrapping_sub(g0)) {
-                    list.push(Ray {
-                        k: (base + lo + m) as u32,
-                        theta,
-                        dir: DVec3::new(dx, dy, dz),
-                    });
+                // The ray's bin by [`Bins::near`]'s edge tests, walked
+                // among the group's edges: the one bin whose lower edge
+                // the ray lies counter-clockwise of and whose upper edge
+                // not. Beyond the group's outer edges (or where the tests
+                // cannot tell), [`Bins::near`] decides.
+                let ccw = |e: DVec2| e.x * dy - e.y * dx >= 0.0;
+                let mut inside = true;
+                if !ccw(edges[lb]) {
+                    loop {
+                        if lb == 0 {
+                            inside = false;
+                            break;
+                        }
+                        lb -= 1;
+                        if ccw(edges[lb]) {
+                            break;
+                        }
+                    }
+                } else {
+                    while ccw(edges[lb + 1]) {
+                        if lb + 1 == nl {
+                            inside = false;
+                            break;
+                        }
+                        lb += 1;
+                    }
                 }
+                if !inside {
+                    match self.bins.near(g0 + lb, dx, dy).checked_sub(g0) {
+                        Some(l) if l < nl => lb = l,
+                        _ => continue,
+                    }
+                }
+                gs.lists[lb].push(Ray {
+                    k: (base + lo + m) as u32,
+                    theta,
+                    dir: DVec3::new(dx, dy, dz),
+                });
             }
         }
     }
@@ -1626,6 +1659,8 @@ struct GroupScratch {
     dy: Vec<f64>,
     dz: Vec<f64>,
     th: Vec<f64>,
+    /// The group's bin edges g0..=g1.
+    edges: Vec<DVec2>,
 }
 
 /// Bins swept side by side (see [`sweep_together`]).
