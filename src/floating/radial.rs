@@ -2296,6 +2296,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
         self.cursor = 0;
         self.record = false;
+        // (room for every ray at once, in a fresh buffer: nothing to copy)
+        let n = self.rays.len();
+        if self.out.capacity() < n {
+            self.out = Vec::with_capacity(n);
+        }
+        if self.jobs.capacity() < n {
+            self.jobs = Vec::with_capacity(n);
+        }
         // The coverage is the union of the spans and points so far, and a
         // span reveals every ray it holds that is not done and not covered
         // before: a ray is covered exactly when it is done or on an earlier
