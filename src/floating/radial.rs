@@ -2698,7 +2698,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     // without bound, steps by it would approach the pole
                     // without end (as in the orthographic sweep).
                     (cap, cap)
-                } else if !deep && r > 0.0 && r.is_finite() {
+                } else if !deep && r > 0.0 && r < f64::INFINITY {
                     (
                         (opts.step() / r).min(cap),
                         (super::column::AIM * opts.step() / r).min(cap),
