@@ -2063,13 +2063,15 @@ pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
     }
 }
 
-/// What the pixels of one span share: the samples' points and distances
-/// from the eye, the side revealed, and the span's cubic (none for walls).
+/// What the pixels of one span share: the samples' points, the nearer and
+/// farther of their distances from the eye and the difference, the side
+/// revealed, and the span's cubic (none for walls).
 struct SpanConst {
     pa: DVec3,
     pb: DVec3,
-    la: f64,
-    lb: f64,
+    near: f64,
+    far: f64,
+    span: f64,
     topo: i8,
     cubic: Option<super::column::SpanCubic>,
 }
@@ -2079,11 +2081,13 @@ impl SpanConst {
     fn new(ctx: &Ctx<'_>, a: &Sample, b: &Sample, wall: bool) -> SpanConst {
         let e = ctx.cam.eye;
         let (pa, pb) = (a.world(&ctx.frame), b.world(&ctx.frame));
+        let (la, lb) = ((pa - e).length(), (pb - e).length());
         SpanConst {
             pa,
             pb,
-            la: (pa - e).length(),
-            lb: (pb - e).length(),
+            near: la.min(lb),
+            far: la.max(lb),
+            span: (la - lb).abs(),
             // Upwards (θ increasing) reveals the upper side, in world terms.
             topo: if b.rho > a.rho { 1 } else { -1 },
             cubic: if wall {
@@ -3298,13 +3302,11 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
             let fp = lam0.max(cam.near) / cam.focal;
-            let (la, lb) = (sp.la, sp.lb);
-            let span = (la - lb).abs();
             self.jobs.push(BinJob {
                 dir,
                 lam: lam0,
-                lo: la.min(lb).min(lam0) - 4.0 * fp - span,
-                hi: la.max(lb).max(lam0) + 4.0 * fp + span,
+                lo: sp.near.min(lam0) - 4.0 * fp - sp.span,
+                hi: sp.far.max(lam0) + 4.0 * fp + sp.span,
                 fp,
                 slot: self.out.len() as u32,
                 side: topo,
