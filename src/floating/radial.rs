@@ -1664,7 +1664,7 @@ struct GroupScratch {
 }
 
 /// Bins swept side by side (see [`sweep_together`]).
-const LOCKSTEP: usize = 8;
+const LOCKSTEP: usize = 16;
 
 /// Bins of one round of [`two_pass_bins`] (their sweeps, then their rays).
 const TWO_PASS_BINS: usize = 16;
