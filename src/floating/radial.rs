@@ -360,9 +360,11 @@ fn two_pass_bins<'c, 'a>(
     ls.rows = rows;
     for (&b, (sw, _)) in todo.iter().zip(live.iter_mut()) {
         let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
+        sw.swap_pixel_buffers(&mut ls.pixels);
         ls.gs.lists[b - g0] = sw.replay(rays);
         sw.solve();
         res.push(bin_result(sw, direct, marks));
+        sw.swap_pixel_buffers(&mut ls.pixels);
     }
     ls.todo = todo;
     Ok(())
@@ -1679,6 +1681,22 @@ struct Lockstep<'c, 'a> {
     /// Each bin's generation rows (see [`Runs::rows_within`]).
     rows: Vec<Option<(usize, usize)>>,
     eval: EvalScratch,
+    pixels: PixelBuffers,
+}
+
+/// A bin's buffers from its rays' replay to its result (see
+/// [`two_pass_bins`]), which the bins of a worker thread take in turn: one
+/// set grown, not one per sweep.
+#[derive(Default)]
+struct PixelBuffers {
+    rows: Vec<f64>,
+    done: Vec<bool>,
+    out: Vec<(usize, Pixel)>,
+    jobs: Vec<BinJob>,
+    walls: Vec<BinJob>,
+    solver: super::refine::NewtonScratch,
+    failed: Vec<u32>,
+    checks: SideChecks,
 }
 
 /// Buffers of [`sweep_together`].
@@ -2279,6 +2297,19 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         old
     }
 
+    /// Trade the sweep's buffers of [`PixelBuffers`] for `bufs` (their
+    /// contents go along).
+    fn swap_pixel_buffers(&mut self, bufs: &mut PixelBuffers) {
+        std::mem::swap(&mut self.rows, &mut bufs.rows);
+        std::mem::swap(&mut self.done, &mut bufs.done);
+        std::mem::swap(&mut self.out, &mut bufs.out);
+        std::mem::swap(&mut self.jobs, &mut bufs.jobs);
+        std::mem::swap(&mut self.walls, &mut bufs.walls);
+        std::mem::swap(&mut self.solver, &mut bufs.solver);
+        std::mem::swap(&mut self.failed, &mut bufs.failed);
+        std::mem::swap(&mut self.checks, &mut bufs.checks);
+    }
+
     /// The lowest and highest covered pseudo-elevations (None: nothing
     /// covered).
     fn covered(&self) -> Option<(f64, f64)> {
@@ -2300,8 +2331,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
         self.cursor = 0;
         self.record = false;
-        // (room for every ray at once, in a fresh buffer: nothing to copy)
+        // (the sweep revealed nothing yet; the buffers may come from another
+        // bin, see [`PixelBuffers`], with room for every ray at once, in a
+        // fresh buffer: nothing to copy)
         let n = self.rays.len();
+        self.out.clear();
+        self.jobs.clear();
+        self.walls.clear();
         if self.out.capacity() < n {
             self.out = Vec::with_capacity(n);
         }
