@@ -3271,7 +3271,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn pixel(
         &mut self,
         a: &Sample,
