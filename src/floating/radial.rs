@@ -2704,6 +2704,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 
     /// The next step of the sweep from ρ = `st.rho` (false: the sweep is
     /// over): its step bounds from the previous sample.
+    #[inline(always)]
     fn step_start(&mut self, st: &mut RunState) -> bool {
         let ctx = self.ctx;
         let opts = ctx.opts;
