@@ -1865,6 +1865,14 @@ fn bytes8(set: &[bool], a: usize) -> u64 {
     u64::from_le_bytes(b.map(u8::from))
 }
 
+/// 0 < x < ∞, in two float comparisons (x·0 is 0 for finite x, NaN for
+/// ±∞ and NaN): the compiler's own test of finiteness is a dozen integer
+/// operations.
+#[inline(always)]
+fn positive_finite(x: f64) -> bool {
+    x > 0.0 && x * 0.0 == 0.0
+}
+
 /// The sweep's elevation coordinate of the direction (h, z) (horizontal
 /// distance h ≥ 0, height z): tan(θ/2) = z / (h + √(h² + z²)) for the
 /// elevation θ = atan2(z, h). Monotone in θ over (−π, π) (so it orders rays
@@ -2739,7 +2747,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     // without bound, steps by it would approach the pole
                     // without end (as in the orthographic sweep).
                     (cap, cap)
-                } else if !deep && r > 0.0 && r < f64::INFINITY {
+                } else if !deep && positive_finite(r) {
                     (
                         (opts.step() / r).min(cap),
                         (super::column::AIM * opts.step() / r).min(cap),
@@ -3312,7 +3320,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut trusted = herm.is_some();
         if trusted {
             let l = (p - e).dot(m) / dn;
-            if dn * dn > 0.15 * 0.15 * m.length_squared() && l.is_finite() && l > 0.0 {
+            if dn * dn > 0.15 * 0.15 * m.length_squared() && positive_finite(l) {
                 lam0 = l;
             } else {
                 trusted = false;
