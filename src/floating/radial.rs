@@ -1752,7 +1752,7 @@ fn sweep_together(
             batch.clear();
             for (k, &rho) in sw.ahead.ts.iter().enumerate() {
                 let hs = sc.hs[at + k];
-                batch.push(hs.is_finite().then_some(Raw {
+                batch.push(finite(&hs).then_some(Raw {
                     t: rho,
                     s: 0.0,
                     uv: DVec2::new(sc.u[at + k], sc.v[at + k]),
@@ -1871,6 +1871,13 @@ fn bytes8(set: &[bool], a: usize) -> u64 {
 #[inline(always)]
 fn positive_finite(x: f64) -> bool {
     x > 0.0 && x * 0.0 == 0.0
+}
+
+/// [`HeightSample::is_finite`] in float operations (see
+/// [`positive_finite`]).
+#[inline(always)]
+fn finite(h: &HeightSample) -> bool {
+    h.f * 0.0 + h.fu * 0.0 + h.fv * 0.0 == 0.0
 }
 
 /// The sweep's elevation coordinate of the direction (h, z) (horizontal
