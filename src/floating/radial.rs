@@ -3353,12 +3353,16 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
-            let fp = lam0.max(cam.near) / cam.focal;
+            // (f64::min and max by plain comparisons: lam0 is a number,
+            // and where the span's distances are not, lam0 is taken)
+            let fp = if lam0 > cam.near { lam0 } else { cam.near } / cam.focal;
+            let lo = if sp.near < lam0 { sp.near } else { lam0 };
+            let hi = if sp.far > lam0 { sp.far } else { lam0 };
             self.jobs.push(BinJob {
                 dir,
                 lam: lam0,
-                lo: sp.near.min(lam0) - 4.0 * fp - sp.span,
-                hi: sp.far.max(lam0) + 4.0 * fp + sp.span,
+                lo: lo - 4.0 * fp - sp.span,
+                hi: hi + 4.0 * fp + sp.span,
                 fp,
                 slot: self.out.len() as u32,
                 side: topo,
