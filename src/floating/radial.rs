@@ -1873,6 +1873,28 @@ fn positive_finite(x: f64) -> bool {
     x > 0.0 && x * 0.0 == 0.0
 }
 
+/// `a.max(b)` for a number `b` (not NaN): the same value, `a` where
+/// greater, else `b` (also for a NaN `a`), in one comparison, where
+/// `f64::max` tests both for NaN.
+#[inline(always)]
+fn max_num(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `a.min(b)` for a number `b` (see [`max_num`]).
+#[inline(always)]
+fn min_num(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
 /// [`HeightSample::is_finite`] in float operations (see
 /// [`positive_finite`]).
 #[inline(always)]
@@ -2741,7 +2763,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 } else {
                     self.fp_at(a)
                 };
-                let cap = opts.max_step() * fp.max(1e-12 * scale);
+                let cap = opts.max_step() * max_num(fp, 1e-12 * scale);
                 // (the elevation rate in local pixels)
                 let r = a.drho_dt.abs() * st.rate;
                 let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
@@ -2756,8 +2778,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     (cap, cap)
                 } else if !deep && positive_finite(r) {
                     (
-                        (opts.step() / r).min(cap),
-                        (super::column::AIM * opts.step() / r).min(cap),
+                        min_num(opts.step() / r, cap),
+                        min_num(super::column::AIM * opts.step() / r, cap),
                     )
                 } else {
                     (cap, cap)
@@ -3353,16 +3375,12 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
         if queued {
             // Solved after the sweep, batched with the bin's other pixels.
-            // (f64::min and max by plain comparisons: lam0 is a number,
-            // and where the span's distances are not, lam0 is taken)
-            let fp = if lam0 > cam.near { lam0 } else { cam.near } / cam.focal;
-            let lo = if sp.near < lam0 { sp.near } else { lam0 };
-            let hi = if sp.far > lam0 { sp.far } else { lam0 };
+            let fp = max_num(lam0, cam.near) / cam.focal;
             self.jobs.push(BinJob {
                 dir,
                 lam: lam0,
-                lo: lo - 4.0 * fp - sp.span,
-                hi: hi + 4.0 * fp + sp.span,
+                lo: min_num(sp.near, lam0) - 4.0 * fp - sp.span,
+                hi: max_num(sp.far, lam0) + 4.0 * fp + sp.span,
                 fp,
                 slot: self.out.len() as u32,
                 side: topo,
