@@ -2978,8 +2978,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     let rb = self.rate.at(b.rho);
                     // (elevations clamped to 2 units beyond the rays': a
                     // stretch wholly above or below them shows no gap)
-                    let clamp = |r: f64| r.max(st.th_lo - 2.0).min(st.th_hi + 2.0);
-                    let gap = (clamp(b.rho) - clamp(a.rho)).abs() * st.rate.max(rb);
+                    let clamp = |r: f64| min_num(max_num(r, st.th_lo - 2.0), st.th_hi + 2.0);
+                    let gap = (clamp(b.rho) - clamp(a.rho)).abs() * max_num(st.rate, rb);
                     let hidden = gap > opts.step() && (st.skipping || self.hidden(a, b));
                     let ulps = super::column::retry_floor(rho);
                     if gap > opts.step()
