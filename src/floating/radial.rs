@@ -3288,8 +3288,11 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         let mut sp = None;
         while k < self.rows.len() && self.rows[k] <= hi {
             let th = self.rows[k];
+            // (a plain loop over the points, most often none: the slice
+            // search's set-up cost more)
+            #[allow(clippy::manual_contains)]
             let covered = if replay {
-                self.points.contains(&th)
+                self.points.iter().any(|&x| x == th)
             } else {
                 self.cov.contains(th)
             };
