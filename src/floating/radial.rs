@@ -3348,16 +3348,14 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // normalisation stays off the seed's dependency chain.
         let m = a.n.lerp(b.n, tau);
         let dn = dir.dot(m);
-        let mut lam0 = (p - e).dot(dir).max(0.0);
-        let mut trusted = herm.is_some();
-        if trusted {
+        // The seed: where the ray meets that plane, for a p on the cubic
+        // (trusted); else p's projection on the ray.
+        let tangent = herm.and_then(|_| {
             let l = (p - e).dot(m) / dn;
-            if dn * dn > 0.15 * 0.15 * m.length_squared() && positive_finite(l) {
-                lam0 = l;
-            } else {
-                trusted = false;
-            }
-        }
+            (dn * dn > 0.15 * 0.15 * m.length_squared() && positive_finite(l)).then_some(l)
+        });
+        let trusted = tangent.is_some();
+        let lam0 = tangent.unwrap_or_else(|| (p - e).dot(dir).max(0.0));
         let topo = sp.topo;
         let mut px = Pixel {
             set: true,
