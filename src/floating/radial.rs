@@ -2766,7 +2766,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let cap = opts.max_step() * max_num(fp, 1e-12 * scale);
                 // (the elevation rate in local pixels)
                 let r = a.drho_dt.abs() * st.rate;
-                let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
+                // (the depth of a.rho in the coverage, by min_num: the
+                // interval's ends and a.rho in it are numbers)
+                let depth = self
+                    .cov
+                    .interval(a.rho)
+                    .map_or(0.0, |(lo, hi)| min_num(a.rho - lo, hi - a.rho));
+                let deep = depth > 2.0 * opts.step();
                 if outside && self.try_skip(st, cap) {
                     (st.hstep, st.hstep)
                 } else if outside {
