@@ -2368,9 +2368,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.rows.extend(self.rays.iter().map(|r| r.theta * ppr));
         self.cursor = 0;
         self.record = false;
-        // (the sweep revealed nothing yet; the buffers may come from another
-        // bin, see [`PixelBuffers`], with room for every ray at once, in a
-        // fresh buffer: nothing to copy)
+        // Emptied (they may hold another bin's pixels, see
+        // [`PixelBuffers`]; the recorded sweep revealed none), with room
+        // for every ray: where too small, a fresh buffer (nothing to copy).
         let n = self.rays.len();
         self.out.clear();
         self.jobs.clear();
