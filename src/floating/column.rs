@@ -242,7 +242,6 @@ struct Sweep<'c, 'a> {
     spans: Vec<super::refine::SpanSeed>,
     /// Batched look-ahead (vertical column planes only).
     ahead: Option<Box<Ahead>>,
-    batch: Vec<Option<Raw>>,
     /// With `coverage`: the covered rows at floating-point precision,
     /// including the extrema between samples (§6.4).
     fine: Option<Coverage>,
@@ -266,7 +265,6 @@ pub struct ColumnScratch {
     seeds: Vec<super::refine::SeedJob>,
     spans: Vec<super::refine::SpanSeed>,
     ahead: Box<Ahead>,
-    batch: Vec<Option<Raw>>,
     solve: super::refine::SolveScratch,
     /// The shared evaluations and solve buffers of a group of columns
     /// (kept by its first).
@@ -495,7 +493,6 @@ async unsafe fn column_task(
             a.reset();
             a
         }),
-        batch: std::mem::take(&mut sc.batch),
         fine: ctx.opts.coverage.then(Coverage::default),
         pool,
         detect: ctx.opts.corrections.any_detection(),
@@ -524,7 +521,6 @@ async unsafe fn column_task(
     if let Some(a) = sw.ahead.take() {
         sc.ahead = a;
     }
-    sc.batch = std::mem::take(&mut sw.batch);
     if !sw.seeds.is_empty() {
         let (failed, evals) = solve_ortho(
             ctx,
@@ -932,33 +928,23 @@ impl<'c, 'a> Sweep<'c, 'a> {
         snap: f64,
         out: &mut Sample,
     ) -> (f64, bool) {
-        let mut ahead = self.ahead.take().expect("look-ahead sweep");
-        let mut ts = std::mem::take(&mut ahead.ts);
-        ts.clear();
-        ts.extend(ahead.plan(tau, h, limit, snap).iter().map(|&x| tt(x)));
-        let mut batch = std::mem::take(&mut self.batch);
-        self.sampler.points_many(&ts, &mut ahead.scratch);
-        let sc = &mut ahead.scratch;
-        let n = sc.u.len();
+        let ahead = self.ahead.as_deref_mut().expect("look-ahead sweep");
+        let (start, n) = {
+            let mut p = self.pool.borrow_mut();
+            let p = &mut *p;
+            let start = p.u.len();
+            let n = ahead.plan_points(&self.sampler, tau, h, limit, snap, tt, &mut p.u, &mut p.v);
+            (start, n)
+        };
         if n > 0 {
-            let start = {
-                let mut p = self.pool.borrow_mut();
-                let start = p.u.len();
-                p.u.extend_from_slice(&sc.u);
-                p.v.extend_from_slice(&sc.v);
-                start
-            };
             Yield(false).await;
-            let p = self.pool.borrow();
-            self.sampler
-                .finish_many(&ts, &mut batch, sc, &p.hs[start..start + n]);
-        } else {
-            self.sampler.finish_many(&ts, &mut batch, sc, &[]);
         }
-        ahead.ts = ts;
-        let first = ahead.fill(&mut batch);
-        self.batch = batch;
-        self.ahead = Some(ahead);
+        let first = {
+            let p = self.pool.borrow();
+            let hs = if n > 0 { &p.hs[start..start + n] } else { &[] };
+            let ahead = self.ahead.as_deref_mut().expect("look-ahead sweep");
+            ahead.fill_points(&mut self.sampler, hs)
+        };
         self.finish_raw(first, out)
     }
 

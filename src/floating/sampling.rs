@@ -306,8 +306,9 @@ impl<'a> Sampler<'a> {
     /// whose plane is vertical (κ = 0: every sample is one evaluation, so
     /// the batch gives exactly what [`Self::sample`] gives point by point).
     /// Points outside the domain are `None` and not evaluated. (The sweeps
-    /// call its two halves, batching the evaluations of several columns;
-    /// the tests check the whole against [`Self::sample`].)
+    /// evaluate their look-ahead points, [`Self::point`], batched over
+    /// several columns, and give them their values with [`set_values`];
+    /// the tests check the two against [`Self::sample`].)
     #[cfg(test)]
     pub(crate) fn sample_many(
         &mut self,
@@ -315,62 +316,46 @@ impl<'a> Sampler<'a> {
         out: &mut Vec<Option<Raw>>,
         scratch: &mut Scratch,
     ) {
-        self.points_many(ts, scratch);
+        scratch.clear();
+        out.clear();
+        for &t in ts {
+            let r = self.point(t, &self.bounds());
+            if let Some(x) = &r {
+                scratch.u.push(x.uv.x);
+                scratch.v.push(x.uv.y);
+            }
+            out.push(r);
+        }
         scratch.hs.resize(scratch.u.len(), HeightSample::default());
         self.field
             .eval_batch(&scratch.u, &scratch.v, &mut scratch.hs);
-        let hs = std::mem::take(&mut scratch.hs);
-        self.finish_many(ts, out, scratch, &hs);
-        scratch.hs = hs;
+        self.evals += scratch.u.len() as u64;
+        set_values(out, &scratch.hs);
     }
 
-    /// The first half of [`Self::sample_many`]: the points of `ts` inside
-    /// the domain, into `scratch.u` and `scratch.v` (to be evaluated into
-    /// `scratch.hs`, by this sampler's field or batched with others).
-    pub fn points_many(&self, ts: &[f64], scratch: &mut Scratch) {
-        debug_assert!(self.line.kappa == 0.0);
-        let fr = self.frame;
-        let s = self.line.s0;
-        scratch.clear();
-        // The domain with its rounding margin (as in `inside`), once.
-        let d = &fr.domain;
+    /// The domain with its rounding margin (as in `inside`): u0, u1, v0, v1.
+    #[inline]
+    fn bounds(&self) -> [f64; 4] {
+        let d = &self.frame.domain;
         let eu = 1e-12 * (d.u1 - d.u0).abs().max(d.u0.abs().max(d.u1.abs()));
         let ev = 1e-12 * (d.v1 - d.v0).abs().max(d.v0.abs().max(d.v1.abs()));
-        let (u0, u1, v0, v1) = (d.u0 - eu, d.u1 + eu, d.v0 - ev, d.v1 + ev);
-        for (k, &t) in ts.iter().enumerate() {
-            let uv = fr.uv(s + self.line.a * t, t);
-            if uv.x >= u0 && uv.x <= u1 && uv.y >= v0 && uv.y <= v1 {
-                scratch.u.push(uv.x);
-                scratch.v.push(uv.y);
-                scratch.idx.push(k);
-            }
-        }
+        [d.u0 - eu, d.u1 + eu, d.v0 - ev, d.v1 + ev]
     }
 
-    /// The second half of [`Self::sample_many`], `hs` the values at the
-    /// points of [`Self::points_many`].
-    pub fn finish_many(
-        &mut self,
-        ts: &[f64],
-        out: &mut Vec<Option<Raw>>,
-        scratch: &Scratch,
-        hs: &[HeightSample],
-    ) {
-        let s = self.line.s0;
-        self.evals += scratch.u.len() as u64;
-        out.clear();
-        out.resize(ts.len(), None);
-        for (n, &k) in scratch.idx.iter().enumerate() {
-            let h = hs[n];
-            if h.is_finite() {
-                out[k] = Some(Raw {
-                    t: ts[k],
-                    s: s + self.line.a * ts[k],
-                    uv: DVec2::new(scratch.u[n], scratch.v[n]),
-                    h,
-                });
-            }
-        }
+    /// The sample at t of a column whose plane is vertical (κ = 0), its
+    /// values `h` still to be evaluated, if inside the domain `b`
+    /// ([`Self::bounds`]).
+    #[inline]
+    fn point(&self, t: f64, b: &[f64; 4]) -> Option<Raw> {
+        debug_assert!(self.line.kappa == 0.0);
+        let s = self.line.s0 + self.line.a * t;
+        let uv = self.frame.uv(s, t);
+        (uv.x >= b[0] && uv.x <= b[1] && uv.y >= b[2] && uv.y <= b[3]).then_some(Raw {
+            t,
+            s,
+            uv,
+            h: HeightSample::default(),
+        })
     }
 
     /// The surface point of the column's curve at t, starting the in-plane
@@ -497,6 +482,20 @@ impl<'a> Sampler<'a> {
     }
 }
 
+/// Give the points `smps` inside the domain (in order) their values `hs`;
+/// those whose values are not finite become `None`.
+fn set_values(smps: &mut [Option<Raw>], hs: &[HeightSample]) {
+    let mut hs = hs.iter();
+    for r in smps.iter_mut() {
+        if let Some(x) = r {
+            match hs.next() {
+                Some(h) if h.is_finite() => x.h = *h,
+                _ => *r = None,
+            }
+        }
+    }
+}
+
 /// Speculative look-ahead of a sweep: the next few samples along the sweep,
 /// evaluated in one batch at a constant step (batched evaluation costs a
 /// fraction of point-by-point evaluation). The sweep takes the farthest
@@ -508,7 +507,6 @@ pub struct Ahead {
     smps: Vec<Option<Raw>>,
     pos: usize,
     k: usize,
-    pub scratch: Scratch,
     /// Sweep parameter → sampling parameter of each new batch.
     pub ts: Vec<f64>,
 }
@@ -523,7 +521,6 @@ impl Default for Ahead {
             smps: Vec::new(),
             pos: 0,
             k: 4,
-            scratch: Scratch::default(),
             ts: Vec::new(),
         }
     }
@@ -575,6 +572,50 @@ impl Ahead {
             }
         }
         &self.taus
+    }
+
+    /// [`Self::plan`] for a column whose plane is vertical (κ = 0, `tt`
+    /// the sampling parameter of a sweep parameter): the batch's points
+    /// inside the domain are appended to `u` and `v`, to be evaluated (with
+    /// other columns' points) for [`Self::fill_points`]. Returns how many.
+    #[allow(clippy::too_many_arguments)]
+    pub fn plan_points(
+        &mut self,
+        sampler: &Sampler<'_>,
+        tau: f64,
+        h: f64,
+        limit: f64,
+        snap: f64,
+        tt: impl Fn(f64) -> f64,
+        u: &mut Vec<f64>,
+        v: &mut Vec<f64>,
+    ) -> usize {
+        self.plan(tau, h, limit, snap);
+        let b = sampler.bounds();
+        let n0 = u.len();
+        self.smps.clear();
+        for &x in &self.taus {
+            let r = sampler.point(tt(x), &b);
+            if let Some(p) = &r {
+                u.push(p.uv.x);
+                v.push(p.uv.y);
+            }
+            self.smps.push(r);
+        }
+        u.len() - n0
+    }
+
+    /// Give the points of the batch of [`Self::plan_points`] their values
+    /// `hs` (counted as the sampler's evaluations) and take the first.
+    pub fn fill_points(
+        &mut self,
+        sampler: &mut Sampler<'_>,
+        hs: &[HeightSample],
+    ) -> (f64, Option<Raw>) {
+        sampler.evals += hs.len() as u64;
+        set_values(&mut self.smps, hs);
+        self.pos = 1;
+        (self.taus[0], self.smps[0])
     }
 
     /// Store the samples of the planned batch and take the first.
