@@ -113,6 +113,7 @@ impl Coverage {
         self.add_general(lo, hi);
     }
 
+    #[inline(never)]
     fn add_general(&mut self, lo: f64, hi: f64) {
         // In place (no allocation in the common case of one interval).
         let mut first: Option<usize> = None;
@@ -235,6 +236,8 @@ struct Sweep<'c, 'a> {
     col: f64,
     cov: Coverage,
     h: usize,
+    /// `h` as a float (the rows' bounds, often wanted).
+    hf: f64,
     stats: ColumnStats,
     jobs: Vec<super::refine::Job>,
     /// Pixels queued by orthographic spans, and those spans.
@@ -472,6 +475,7 @@ async unsafe fn column_task(
         col,
         cov: Coverage::default(),
         h: ctx.cam.height,
+        hf: ctx.cam.height as f64,
         stats: ColumnStats::default(),
         jobs: {
             let mut j = std::mem::take(&mut sc.jobs);
@@ -865,7 +869,7 @@ impl SpanCubic {
 impl<'c, 'a> Sweep<'c, 'a> {
     #[inline]
     fn clamp_row(&self, r: f64) -> f64 {
-        r.clamp(-2.0, self.h as f64 + 1.0)
+        r.clamp(-2.0, self.hf + 1.0)
     }
 
     fn valid(&self, s: &Option<Sample>) -> bool {
@@ -1025,7 +1029,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 _ => len,
             };
             let mut skip = 0.0;
-            let hf = self.h as f64;
+            let hf = self.hf;
             // (on the picture, the common case: one test)
             let outside = has_prev && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN);
             // (or in a hole, or outside the domain: no sample to step from)
@@ -1153,7 +1157,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             }
             // Early exit once every row is covered (checked only when
             // the coverage grew).
-            if std::mem::take(&mut self.grew) && self.cov.covers(-0.5, self.h as f64 - 0.5) {
+            if std::mem::take(&mut self.grew) && self.cov.covers(-0.5, self.hf - 0.5) {
                 self.stats.early_exit += 1;
                 return;
             }
@@ -1180,7 +1184,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let (y0, y1) = (ya.min(yb) + wl.min(wh), ya.max(yb) + wl.max(wh));
         // (rows grow downwards: the highest y is the smallest row)
         let (r0, r1) = (fr.row(y1, 1.0), fr.row(y0, 1.0));
-        r1 < -SKIP_MARGIN || r0 > self.h as f64 - 1.0 + SKIP_MARGIN
+        r1 < -SKIP_MARGIN || r0 > self.hf - 1.0 + SKIP_MARGIN
     }
 
     /// Does the curve stay inside the covered rows between a and b? Both
@@ -1281,16 +1285,27 @@ impl<'c, 'a> Sweep<'c, 'a> {
     }
 
     /// Fill the rows newly revealed between samples a and b.
+    #[inline]
     fn span(&mut self, a: &Sample, b: &Sample, wall: bool, out: &mut [Pixel]) {
         let ra = self.clamp_row(a.rho);
         let rb = self.clamp_row(b.rho);
         let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
-        if self.fine.is_some() {
-            self.edges(a, b, wall, lo, hi, out);
-        }
-        if self.cov.covers(lo, hi) {
+        if self.fine.is_none() && self.cov.covers(lo, hi) {
             // Nothing newly revealed (the common case behind the front).
             return;
+        }
+        self.reveal(a, b, wall, lo, hi, out);
+    }
+
+    /// [`Self::span`] past its common case: rows lo..hi, maybe newly
+    /// revealed.
+    #[inline(never)]
+    fn reveal(&mut self, a: &Sample, b: &Sample, wall: bool, lo: f64, hi: f64, out: &mut [Pixel]) {
+        if self.fine.is_some() {
+            self.edges(a, b, wall, lo, hi, out);
+            if self.cov.covers(lo, hi) {
+                return;
+            }
         }
         let i0 = ceil_i(lo).max(0);
         let i1 = floor_i(hi).min(self.h as i64 - 1);
@@ -1389,7 +1404,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         }
         fine.add(elo, ehi);
         let i0 = ((elo - 0.5).floor() + 1.0).max(0.0) as i64;
-        let i1 = ((ehi + 0.5).ceil() - 1.0).min(self.h as f64 - 1.0) as i64;
+        let i1 = ((ehi + 0.5).ceil() - 1.0).min(self.hf - 1.0) as i64;
         let fr = self.ctx.frame;
         let upward = b.rho < a.rho;
         let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };

@@ -318,8 +318,9 @@ impl<'a> Sampler<'a> {
     ) {
         scratch.clear();
         out.clear();
+        let b = self.bounds();
         for &t in ts {
-            let r = self.point(t, &self.bounds());
+            let r = self.point(t, &b);
             if let Some(x) = &r {
                 scratch.u.push(x.uv.x);
                 scratch.v.push(x.uv.y);
@@ -561,8 +562,9 @@ impl Ahead {
         }
         self.taus.clear();
         self.pos = 0;
-        for m in 1..=self.k {
-            let mut t = tau + m as f64 * h;
+        // (m a u32: one instruction to convert to f64, a usize several)
+        for m in 1..=self.k as u32 {
+            let mut t = tau + f64::from(m) * h;
             if t >= limit - snap {
                 t = limit;
             }
