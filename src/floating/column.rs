@@ -601,15 +601,31 @@ async unsafe fn column_task(
 pub(super) struct OrthoScratch {
     /// Per job: its ray origin.
     orig: Vec<DVec3>,
+    /// The first round's points and jobs, their values, the jobs still
+    /// moving after it (with their new λ) and those that failed.
+    u: Vec<f64>,
+    v: Vec<f64>,
+    live: Vec<u32>,
+    hs: Vec<crate::surface::HeightSample>,
+    moving: Vec<(u32, f64)>,
+    failed: Vec<u32>,
     newton: super::refine::NewtonScratch,
 }
 
 /// The exact solve of the pixels of orthographic column `col` seeded by
-/// their spans: [`super::refine::newton`] on the camera's rays, with the
-/// ray origins computed once from the rows and each pixel written once,
-/// when its solve ends (an exact hit, or its span's interpolation should
-/// the solve fail): into `out`, or with `direct`, straight into the
-/// render's buffers. Returns the number of failures and of evaluations.
+/// their spans: Newton on the camera's rays, with the ray origins computed
+/// once from the rows and each pixel written once, when its solve ends (an
+/// exact hit, or its span's interpolation should the solve fail): into
+/// `out`, or with `direct`, straight into the render's buffers. Returns the
+/// number of failures and of evaluations.
+///
+/// The first round, which ends the solve of most pixels (the seeds lie
+/// within about 10⁻³ px of their hits), is [`super::refine::newton`]'s
+/// first round written out for these rays (one direction, each job's
+/// bracket its span's); the jobs still moving go on in
+/// [`super::refine::newton`] from where it left them, for the rounds left.
+/// The same steps as `newton` alone, bit for bit.
+#[inline(never)]
 fn solve_ortho(
     ctx: &Ctx<'_>,
     col: f64,
@@ -626,35 +642,117 @@ fn solve_ortho(
     // hoisted.
     let (xs, _) = cam.pixel_to_screen(0.0, col);
     let base = cam.eye + (xs * cam.pixel) * cam.r;
-    let OrthoScratch { orig, newton } = sc;
+    let OrthoScratch {
+        orig,
+        u,
+        v,
+        live,
+        hs,
+        moving,
+        failed,
+        newton,
+    } = sc;
     orig.clear();
     orig.extend(jobs.iter().map(|j| {
         let (_, ys) = cam.pixel_to_screen(j.slot as f64, col);
         base + (ys * cam.pixel) * cam.up
     }));
     let fp = ctx.frame.pixel;
-    let evals = super::refine::newton(
-        ctx,
-        jobs.len(),
-        |k| jobs[k].lam,
-        |k| (orig[k], d),
-        |k| {
-            let s = &spans[jobs[k].span as usize];
-            (s.lo, s.hi, fp)
-        },
-        newton,
-        |k, l, q, h| {
-            let j = &jobs[k];
+    let dom = ctx.frame.domain;
+    let tol = ctx.opts.refine_tol * fp;
+    let bracket = |k: usize| {
+        let s = &spans[jobs[k].span as usize];
+        (s.lo, s.hi)
+    };
+    // The first round (see above).
+    u.clear();
+    v.clear();
+    live.clear();
+    moving.clear();
+    failed.clear();
+    for (k, (j, o)) in jobs.iter().zip(orig.iter()).enumerate() {
+        let p = *o + j.lam * d;
+        if dom.contains(p.x, p.y) {
+            u.push(p.x);
+            v.push(p.y);
+            live.push(k as u32);
+        } else {
+            failed.push(k as u32);
+        }
+    }
+    // Grown only: a height field's batch writes every element.
+    if hs.len() < live.len() {
+        hs.resize(live.len(), Default::default());
+    }
+    let hs = &mut hs[..live.len()];
+    ctx.field.eval_batch(u, v, hs);
+    let mut evals = live.len() as u64;
+    for (&k, h) in live.iter().zip(hs.iter()) {
+        let (j, o) = (&jobs[k as usize], orig[k as usize]);
+        let pz = (o + j.lam * d).z;
+        if !h.is_finite() {
+            failed.push(k);
+            continue;
+        }
+        let g = pz - h.f;
+        let gp = d.z - (h.fu * d.x + h.fv * d.y);
+        if gp == 0.0 || !gp.is_finite() {
+            failed.push(k);
+            continue;
+        }
+        let dl = g / gp;
+        let l = j.lam - dl;
+        let (lo, hi) = bracket(k as usize);
+        if !(l >= lo && l <= hi) {
+            failed.push(k);
+            continue;
+        }
+        if dl.abs() <= tol {
+            let q = o + l * d;
+            if !dom.contains(q.x, q.y) {
+                failed.push(k);
+                continue;
+            }
             put_exact(ctx, out, direct, j, &spans[j.span as usize], l, q, h);
-        },
-    );
+        } else {
+            moving.push((k, l));
+        }
+    }
+    // The rounds left, from the first round's λ.
+    if ctx.opts.refine_iters > 1 {
+        let opts = FloatingOptions {
+            refine_iters: ctx.opts.refine_iters - 1,
+            ..*ctx.opts
+        };
+        let rest = Ctx {
+            opts: &opts,
+            ..*ctx
+        };
+        let moving = &*moving;
+        evals += super::refine::newton(
+            &rest,
+            moving.len(),
+            |m| moving[m].1,
+            |m| (orig[moving[m].0 as usize], d),
+            |m| {
+                let (lo, hi) = bracket(moving[m].0 as usize);
+                (lo, hi, fp)
+            },
+            newton,
+            |m, l, q, h| {
+                let j = &jobs[moving[m].0 as usize];
+                put_exact(ctx, out, direct, j, &spans[j.span as usize], l, q, h);
+            },
+        );
+        failed.extend(newton.failed().iter().map(|&m| moving[m as usize].0));
+    } else {
+        failed.extend(moving.iter().map(|&(k, _)| k));
+    }
     // A failed pixel's ray marched over its span's bracket (widened by
     // eight pixels) from the side the span reveals; with no crossing there,
     // it is left unset for the searches after the sweeps (`ctx.searched`)
     // or keeps its span's interpolation.
-    let failed = newton.failed();
-    let mut evals = evals;
-    for &k in failed {
+    for &k in failed.iter() {
         let j = &jobs[k as usize];
         let s = &spans[j.span as usize];
         let o = orig[k as usize];
