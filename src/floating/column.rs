@@ -1052,7 +1052,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
 
     /// The sample of a look-ahead point (τ', raw values) into `out`;
     /// returns τ' and whether there is one.
-    #[inline]
+    #[inline(always)]
     fn finish_raw(&mut self, r: (f64, Option<Raw>), out: &mut Sample) -> (f64, bool) {
         let ok = match r.1 {
             Some(x) => {
@@ -1267,6 +1267,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// bounds over the stretch's (u, v) box: the camera's y = t·up_t +
     /// w'·up_w is bilinear in (t, w'), so its range there is taken at the
     /// corners of [ta, tb] × [w'_lo, w'_hi].
+    #[inline(never)]
     fn invisible(&self, ta: f64, tb: f64) -> bool {
         let fr = &self.ctx.frame;
         let s0 = self.sampler.line.s0;
@@ -1310,6 +1311,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// Bisection on validity between τ_a and τ_b (one valid, one not).
     /// Returns (last valid τ, first invalid τ) when `valid_first`, else
     /// (last invalid τ, first valid τ).
+    #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     fn bisect(
         &mut self,
@@ -1339,6 +1341,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         (lo, hi)
     }
 
+    #[inline(never)]
     fn start_run(&mut self, a: &Sample) {
         let r = self.clamp_row(a.rho);
         if !self.cov.contains(r) {

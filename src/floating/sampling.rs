@@ -431,6 +431,7 @@ impl<'a> Sampler<'a> {
     }
 
     /// [`Self::finish`] written in place.
+    #[inline(always)]
     pub fn finish_into(&self, t: f64, uv: DVec2, h: HeightSample, fold: bool, out: &mut Sample) {
         let fr = self.frame;
         let l = self.line;
@@ -580,6 +581,7 @@ impl Ahead {
     /// the sampling parameter of a sweep parameter): the batch's points
     /// inside the domain are appended to `u` and `v`, to be evaluated (with
     /// other columns' points) for [`Self::fill_points`]. Returns how many.
+    #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     pub fn plan_points(
         &mut self,
