@@ -802,7 +802,7 @@ fn put_exact(
         s.topo
     };
     let inten = if normal {
-        ctx.shading.intensity(nrm, -d)
+        ctx.shading.intensity_cos(nrm, -d, c)
     } else {
         s.inten[0] + j.tau * (s.inten[1] - s.inten[0])
     };
