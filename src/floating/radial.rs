@@ -117,11 +117,12 @@ fn render_radial_with(
     // and only the rays up to the highest elevation the sweep covered are
     // (those above it see no surface).
     let two_pass = two_pass && !ctx.opts.coverage && !runs.exact_only;
-    // The sweeps and ray buffers of each worker thread, kept from group to
-    // group (rayon's per-task `map_init` would start each task afresh,
-    // regrowing every buffer); a slot found busy (a task nested in another
-    // on the same thread) is replaced by fresh buffers. The buffers'
-    // contents never reach the output.
+    // The sweeps of each worker thread, kept from group to group (rayon's
+    // per-task `map_init` would start each task afresh, regrowing every
+    // buffer; its other buffers are kept from render to render, see
+    // [`THREAD_BUFS`]); a slot found busy (a task nested in another on the
+    // same thread) is replaced by fresh sweeps. The buffers' contents never
+    // reach the output.
     let pool: Vec<std::sync::Mutex<Option<Lockstep<'_, '_>>>> = (0..rayon::current_num_threads()
         .max(1))
         .map(|_| std::sync::Mutex::new(None))
@@ -136,66 +137,74 @@ fn render_radial_with(
                 Some(held) => held.get_or_insert_with(Lockstep::default),
                 None => fresh.insert(Lockstep::default()),
             };
-            (|| -> Result<Vec<BinResult>> {
-                cancel.check()?;
-                if two_pass {
-                    // A few bins at a time (two lockstep batches of sweeps,
-                    // see [`sweep_together`]): a small working set, the rays
-                    // of several bins generated row by row together.
-                    let mut res = Vec::with_capacity(g1 - g0);
-                    for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
-                        let s1 = (s0 + TWO_PASS_BINS).min(g1);
-                        two_pass_bins(
-                            ctx, &runs, s0, s1, off, direct, &marks, ls, cancel, &mut res,
-                        )?;
-                    }
-                    return Ok(res);
-                }
-                runs.group_rays(g0, g1, None, &mut ls.gs);
-                let mut res = Vec::new();
-                let mut todo = std::mem::take(&mut ls.todo);
-                todo.clear();
-                todo.extend((g0..g1).filter(|&b| !ls.gs.lists[b - g0].is_empty()));
-                // A few bins at a time, swept side by side: their samples
-                // are evaluated together, in batches large enough to
-                // amortise a batch's cost (the samples are the same as
-                // one bin at a time, bit for bit).
-                for chunk in todo.chunks(LOCKSTEP) {
+            THREAD_BUFS.with(|kept| {
+                let mut held = kept.try_borrow_mut().ok();
+                let mut fresh = None;
+                let tb = match held.as_deref_mut() {
+                    Some(tb) => tb,
+                    None => fresh.insert(ThreadBufs::default()),
+                };
+                (|| -> Result<Vec<BinResult>> {
                     cancel.check()?;
-                    while ls.sweeps.len() < chunk.len() {
-                        ls.sweeps
-                            .push((RadialSweep::new(ctx, 0.0, &[]), RunState::default()));
+                    if two_pass {
+                        // A few bins at a time (two lockstep batches of sweeps,
+                        // see [`sweep_together`]): a small working set, the rays
+                        // of several bins generated row by row together.
+                        let mut res = Vec::with_capacity(g1 - g0);
+                        for s0 in (g0..g1).step_by(TWO_PASS_BINS) {
+                            let s1 = (s0 + TWO_PASS_BINS).min(g1);
+                            two_pass_bins(
+                                ctx, &runs, s0, s1, off, direct, &marks, ls, tb, cancel, &mut res,
+                            )?;
+                        }
+                        return Ok(res);
                     }
-                    let sweeps = &mut ls.sweeps[..chunk.len()];
-                    for (&b, (sw, _)) in chunk.iter().zip(sweeps.iter_mut()) {
-                        let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
-                        let phi = bins.centre(b);
-                        // The sweep's previous rays become the list's buffer.
-                        ls.gs.lists[b - g0] = sw.reset(phi, rays);
-                        sw.off = off;
-                        let wedge = if runs.exact_only {
-                            None
-                        } else {
-                            runs.wedge(phi)
-                        };
-                        let (th0, th1) =
-                            wedge.unwrap_or((sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta));
-                        (sw.ppr, sw.rate) = bin_ppr(cam, phi, th0, th1);
-                        sw.srange = (th0, th1);
-                        if ctx.opts.coverage {
-                            sw.start_coverage();
+                    runs.group_rays(g0, g1, None, &mut tb.gs);
+                    let mut res = Vec::new();
+                    let mut todo = std::mem::take(&mut tb.todo);
+                    todo.clear();
+                    todo.extend((g0..g1).filter(|&b| !tb.gs.lists[b - g0].is_empty()));
+                    // A few bins at a time, swept side by side: their samples
+                    // are evaluated together, in batches large enough to
+                    // amortise a batch's cost (the samples are the same as
+                    // one bin at a time, bit for bit).
+                    for chunk in todo.chunks(LOCKSTEP) {
+                        cancel.check()?;
+                        while ls.sweeps.len() < chunk.len() {
+                            ls.sweeps
+                                .push((RadialSweep::new(ctx, 0.0, &[]), RunState::default()));
+                        }
+                        let sweeps = &mut ls.sweeps[..chunk.len()];
+                        for (&b, (sw, _)) in chunk.iter().zip(sweeps.iter_mut()) {
+                            let rays = std::mem::take(&mut tb.gs.lists[b - g0]);
+                            let phi = bins.centre(b);
+                            // The sweep's previous rays become the list's buffer.
+                            tb.gs.lists[b - g0] = sw.reset(phi, rays);
+                            sw.off = off;
+                            let wedge = if runs.exact_only {
+                                None
+                            } else {
+                                runs.wedge(phi)
+                            };
+                            let (th0, th1) = wedge
+                                .unwrap_or((sw.rays[0].theta, sw.rays[sw.rays.len() - 1].theta));
+                            (sw.ppr, sw.rate) = bin_ppr(cam, phi, th0, th1);
+                            sw.srange = (th0, th1);
+                            if ctx.opts.coverage {
+                                sw.start_coverage();
+                            }
+                        }
+                        sweep_together(ctx, sweeps, &mut tb.eval);
+                        for (sw, _) in sweeps.iter_mut() {
+                            sw.solve();
+                            sw.finish_coverage();
+                            res.push(bin_result(sw, direct, &marks));
                         }
                     }
-                    sweep_together(ctx, sweeps, &mut ls.eval);
-                    for (sw, _) in sweeps.iter_mut() {
-                        sw.solve();
-                        sw.finish_coverage();
-                        res.push(bin_result(sw, direct, &marks));
-                    }
-                }
-                ls.todo = todo;
-                Ok(res)
-            })()
+                    tb.todo = todo;
+                    Ok(res)
+                })()
+            })
         })
         .collect();
     let results = results.into_iter().collect::<Result<Vec<_>>>()?;
@@ -315,11 +324,12 @@ fn two_pass_bins<'c, 'a>(
     direct: Option<&SharedOut<'_>>,
     marks: &Marks,
     ls: &mut Lockstep<'c, 'a>,
+    tb: &mut ThreadBufs,
     cancel: &Cancel,
     res: &mut Vec<BinResult>,
 ) -> Result<()> {
     let cam = ctx.cam;
-    let mut todo = std::mem::take(&mut ls.todo);
+    let mut todo = std::mem::take(&mut tb.todo);
     todo.clear();
     while ls.sweeps.len() < g1 - g0 {
         ls.sweeps
@@ -344,11 +354,11 @@ fn two_pass_bins<'c, 'a>(
     let live = &mut ls.sweeps[..todo.len()];
     for chunk in live.chunks_mut(LOCKSTEP) {
         cancel.check()?;
-        sweep_together(ctx, chunk, &mut ls.eval);
+        sweep_together(ctx, chunk, &mut tb.eval);
     }
     // Each bin's generation rows: those whose rays may lie below the
     // highest covered elevation.
-    let mut rows = std::mem::take(&mut ls.rows);
+    let mut rows = std::mem::take(&mut tb.rows);
     rows.clear();
     rows.resize(g1 - g0, None);
     for (&b, (sw, _)) in todo.iter().zip(live.iter()) {
@@ -356,17 +366,17 @@ fn two_pass_bins<'c, 'a>(
             .covered()
             .and_then(|cov| runs.rows_within(sw.eh, cov, sw.srange));
     }
-    runs.group_rays(g0, g1, Some(&rows), &mut ls.gs);
-    ls.rows = rows;
+    runs.group_rays(g0, g1, Some(&rows), &mut tb.gs);
+    tb.rows = rows;
     for (&b, (sw, _)) in todo.iter().zip(live.iter_mut()) {
-        let rays = std::mem::take(&mut ls.gs.lists[b - g0]);
-        sw.swap_pixel_buffers(&mut ls.pixels);
-        ls.gs.lists[b - g0] = sw.replay(rays);
+        let rays = std::mem::take(&mut tb.gs.lists[b - g0]);
+        sw.swap_pixel_buffers(&mut tb.pixels);
+        tb.gs.lists[b - g0] = sw.replay(rays);
         sw.solve();
         res.push(bin_result(sw, direct, marks));
-        sw.swap_pixel_buffers(&mut ls.pixels);
+        sw.swap_pixel_buffers(&mut tb.pixels);
     }
-    ls.todo = todo;
+    tb.todo = todo;
     Ok(())
 }
 
@@ -1671,17 +1681,31 @@ const LOCKSTEP: usize = 16;
 /// Bins of one round of [`two_pass_bins`] (their sweeps, then their rays).
 const TWO_PASS_BINS: usize = 16;
 
-/// A worker thread's buffers: its group's rays, its sweeps (each with the
-/// state of its run) and the batched evaluation's buffers.
+/// A worker thread's sweeps in a render, each with the state of its run.
 #[derive(Default)]
 struct Lockstep<'c, 'a> {
-    gs: GroupScratch,
     sweeps: Vec<(RadialSweep<'c, 'a>, RunState)>,
+}
+
+/// A worker thread's other buffers: its group's rays, the batched
+/// evaluation's and a bin's pixel buffers. Kept from render to render
+/// ([`THREAD_BUFS`]): a new render neither regrows them nor touches fresh
+/// memory.
+#[derive(Default)]
+struct ThreadBufs {
+    gs: GroupScratch,
     todo: Vec<usize>,
     /// Each bin's generation rows (see [`Runs::rows_within`]).
     rows: Vec<Option<(usize, usize)>>,
     eval: EvalScratch,
     pixels: PixelBuffers,
+}
+
+thread_local! {
+    /// The [`ThreadBufs`] of this thread, held by one group task at a time
+    /// (a task nested in another on the same thread takes fresh ones). Their
+    /// contents never reach the output.
+    static THREAD_BUFS: std::cell::RefCell<ThreadBufs> = Default::default();
 }
 
 /// A bin's buffers from its rays' replay to its result (see
