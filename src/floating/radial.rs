@@ -196,7 +196,7 @@ fn render_radial_with(
                         }
                         sweep_together(ctx, sweeps, &mut tb.eval);
                         for (sw, _) in sweeps.iter_mut() {
-                            sw.solve();
+                            sw.solve(direct.map(|o| (o, &marks)));
                             sw.finish_coverage();
                             res.push(bin_result(sw, direct, &marks));
                         }
@@ -372,7 +372,7 @@ fn two_pass_bins<'c, 'a>(
         let rays = std::mem::take(&mut tb.gs.lists[b - g0]);
         sw.swap_pixel_buffers(&mut tb.pixels);
         tb.gs.lists[b - g0] = sw.replay(rays);
-        sw.solve();
+        sw.solve(direct.map(|o| (o, marks)));
         res.push(bin_result(sw, direct, marks));
         sw.swap_pixel_buffers(&mut tb.pixels);
     }
@@ -392,16 +392,46 @@ fn bin_result(
     let Some(out) = direct else {
         return (std::mem::take(&mut sw.out), stats, missed);
     };
-    for (k, p) in &sw.out {
+    // (those unset are written, see [`RadialSweep::solve`])
+    for (k, p) in sw.out.iter().filter(|(_, p)| p.set) {
         // SAFETY: the bins partition the pixels and a bin lists each of its
-        // pixels once, so no other thread touches pixel k. Without coverage
-        // a bin lists set pixels only.
+        // pixels once, so no other thread touches pixel k.
         unsafe {
             out.put_set(*k, p);
-            marks.put(*k, p);
+            marks.put(*k, p.set, p.depth);
         }
     }
     (Vec::new(), stats, missed)
+}
+
+/// An exact hit (depth, (u, v), the surface's sample `h` on ray `dir`) of
+/// pixel k written straight into the render's buffers `to` and `marks`;
+/// its entry `px` in a bin's list takes the hit's side and is left unset
+/// (written).
+///
+/// # Safety
+/// No other thread reads or writes pixel k meanwhile.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+unsafe fn put_direct(
+    ctx: &Ctx<'_>,
+    to: &SharedOut<'_>,
+    marks: &Marks,
+    k: usize,
+    px: &mut Pixel,
+    dir: DVec3,
+    depth: f64,
+    uv: DVec2,
+    h: &HeightSample,
+) {
+    let (n, side, inten) = super::refine::hit_shading(ctx, dir, h, px.side, px.inten);
+    // SAFETY: the caller's guarantee.
+    unsafe {
+        to.put_hit(k, side, inten, depth, n, uv);
+        marks.put(k, true, depth);
+    }
+    px.side = side;
+    px.set = false;
 }
 
 /// The 4-neighbours of pixel k of a w × h image (up, down, left, right;
@@ -517,12 +547,12 @@ impl Marks {
     /// # Safety
     /// No other thread reads or writes pixel k meanwhile.
     #[inline]
-    unsafe fn put(&self, k: usize, p: &Pixel) {
+    unsafe fn put(&self, k: usize, set: bool, depth: f64) {
         assert!(k < self.n, "pixel index out of range");
         // SAFETY: k < n (the length of both arrays), access exclusive.
         unsafe {
-            *self.set.add(k) = p.set;
-            *self.depth.add(k) = p.depth;
+            *self.set.add(k) = set;
+            *self.depth.add(k) = depth;
         }
     }
 }
@@ -3071,9 +3101,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// along the ray for those Newton could not settle (the pixel's ray is
     /// up to half a bin off the bin's plane, so its seed can be poor at
     /// grazing).
+    ///
+    /// With `direct` (the render's buffers and marks), an exact hit is
+    /// written there at once, its entry in `out` left unset (the others are
+    /// written by [`bin_result`]).
     #[inline(never)]
-    fn solve(&mut self) {
-        self.solve_walls();
+    fn solve(&mut self, direct: Option<(&SharedOut<'_>, &Marks)>) {
+        self.solve_walls(direct);
         if self.jobs.is_empty() {
             return;
         }
@@ -3098,8 +3132,15 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             |k, lam, q, h| {
                 let j = &jobs[k];
                 let depth = (q - e).dot(d);
-                let px = &mut out[j.slot as usize].1;
-                super::refine::finish(ctx, px, j.dir, depth, DVec2::new(q.x, q.y), h);
+                let (pk, px) = &mut out[j.slot as usize];
+                let uv = DVec2::new(q.x, q.y);
+                match direct {
+                    // SAFETY: as in [`bin_result`]: pixel pk is this bin's.
+                    Some((to, marks)) => unsafe {
+                        put_direct(ctx, to, marks, *pk, px, j.dir, depth, uv, h)
+                    },
+                    None => super::refine::finish(ctx, px, j.dir, depth, uv, h),
+                }
                 if px.side != j.side {
                     ck.suspect.push((k as u32, lam));
                 } else if px.side < 0 && under {
@@ -3146,7 +3187,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 if h.is_finite() && z > h.f {
                     let j = self.jobs[k as usize];
                     if let Some((l, hs)) = self.march(e, j.dir, l_in, lam - 1e-3 * j.fp, j.fp, 1) {
-                        self.put_hit(&j, l, &hs);
+                        self.put_hit(&j, l, &hs, direct);
                     }
                 }
             }
@@ -3159,7 +3200,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             if let Some((l, hs)) =
                 self.march(e, j.dir, j.lo - 8.0 * j.fp, lam - 1e-3 * j.fp, j.fp, j.side)
             {
-                self.put_hit(&j, l, &hs);
+                self.put_hit(&j, l, &hs, direct);
             }
         }
         self.checks = ck;
@@ -3170,7 +3211,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         for &k in &failed {
             let j = self.jobs[k as usize];
             match self.march(e, j.dir, j.lo - 8.0 * j.fp, j.hi + 8.0 * j.fp, j.fp, j.side) {
-                Some((lam, hs)) => self.put_hit(&j, lam, &hs),
+                Some((lam, hs)) => self.put_hit(&j, lam, &hs, direct),
                 None => {
                     // No hit near the span that revealed the pixel: its ray
                     // passes by the sheet the bin's plane met (up to half a
@@ -3202,7 +3243,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// where it jumps past it (a step) places the pixel on the wall there,
     /// its wall shading kept; with none, the pixel stays where the ray
     /// passes the wall's place in the plane.
-    fn solve_walls(&mut self) {
+    fn solve_walls(&mut self, direct: Option<(&SharedOut<'_>, &Marks)>) {
         if self.walls.is_empty() {
             return;
         }
@@ -3218,7 +3259,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             let Some((l, hs)) = hit else { continue };
             let q = e + l * j.dir;
             if (q.z - hs.f).abs() <= j.fp {
-                self.put_hit(j, l, &hs);
+                self.put_hit(j, l, &hs, direct);
             } else {
                 let px = &mut self.out[j.slot as usize].1;
                 px.depth = (q - e).dot(d);
@@ -3228,20 +3269,27 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         self.walls = walls;
     }
 
-    /// The exact hit at distance `l` along job `j`'s ray into its pixel.
-    fn put_hit(&mut self, j: &BinJob, l: f64, hs: &HeightSample) {
+    /// The exact hit at distance `l` along job `j`'s ray into its pixel
+    /// (with `direct`, see [`Self::solve`]).
+    fn put_hit(
+        &mut self,
+        j: &BinJob,
+        l: f64,
+        hs: &HeightSample,
+        direct: Option<(&SharedOut<'_>, &Marks)>,
+    ) {
         let ctx = self.ctx;
         let e = ctx.cam.eye;
         let q = e + l * j.dir;
-        let px = &mut self.out[j.slot as usize].1;
-        super::refine::finish(
-            ctx,
-            px,
-            j.dir,
-            (q - e).dot(ctx.cam.d),
-            DVec2::new(q.x, q.y),
-            hs,
-        );
+        let (pk, px) = &mut self.out[j.slot as usize];
+        let (depth, uv) = ((q - e).dot(ctx.cam.d), DVec2::new(q.x, q.y));
+        match direct {
+            // SAFETY: as in [`bin_result`]: pixel pk is this bin's.
+            Some((to, marks)) => unsafe {
+                put_direct(ctx, to, marks, *pk, px, j.dir, depth, uv, hs)
+            },
+            None => super::refine::finish(ctx, px, j.dir, depth, uv, hs),
+        }
     }
 
     /// §5 corrections between samples a and b: the spans up to the last

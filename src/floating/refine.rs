@@ -221,17 +221,38 @@ pub fn solve_with<'s>(
 }
 
 /// Write an exact hit into a pixel (and its shading, in normal mode).
+#[inline]
 pub fn finish(ctx: &Ctx<'_>, px: &mut Pixel, dir: DVec3, depth: f64, uv: DVec2, h: &HeightSample) {
     px.depth = depth;
     px.uv = uv;
-    px.n = h.normal();
-    let c = -dir.dot(px.n);
-    if c != 0.0 {
-        px.side = if c > 0.0 { 1 } else { -1 };
-    }
-    if ctx.opts.shading == ShadingMode::Normal {
-        px.inten = ctx.shading.intensity_cos(px.n, -dir, c);
-    }
+    (px.n, px.side, px.inten) = hit_shading(ctx, dir, h, px.side, px.inten);
+}
+
+/// The normal, seen side and intensity of an exact hit on ray `dir` with
+/// the surface's sample `h` there; `side` and `inten` (the pixel's) kept
+/// where the hit does not tell them (a ray in the tangent plane; shading
+/// other than normal).
+#[inline(always)]
+pub(crate) fn hit_shading(
+    ctx: &Ctx<'_>,
+    dir: DVec3,
+    h: &HeightSample,
+    side: i8,
+    inten: f64,
+) -> (DVec3, i8, f64) {
+    let n = h.normal();
+    let c = -dir.dot(n);
+    let side = match c != 0.0 {
+        true if c > 0.0 => 1,
+        true => -1,
+        false => side,
+    };
+    let inten = if ctx.opts.shading == ShadingMode::Normal {
+        ctx.shading.intensity_cos(n, -dir, c)
+    } else {
+        inten
+    };
+    (n, side, inten)
 }
 
 /// A revealed span of an orthographic column, kept for the pixels it
