@@ -144,6 +144,14 @@ impl Coverage {
     }
     /// Distance of x inside its covered interval (0 when not covered).
     pub(super) fn depth(&self, x: f64) -> f64 {
+        // (the common case, one interval, without the search)
+        if let [(a, b)] = self.iv[..] {
+            return if x >= a && x <= b {
+                (x - a).min(b - x)
+            } else {
+                0.0
+            };
+        }
         self.iv
             .iter()
             .find(|&&(a, b)| x >= a && x <= b)
@@ -167,6 +175,9 @@ impl Coverage {
         ext
     }
     pub(super) fn covers(&self, lo: f64, hi: f64) -> bool {
+        if let [(a, b)] = self.iv[..] {
+            return a <= lo && b >= hi;
+        }
         self.iv.iter().any(|&(a, b)| a <= lo && b >= hi)
     }
     /// Covered length of [lo, hi].
