@@ -160,6 +160,9 @@ impl Coverage {
     }
     /// The covered interval holding x.
     pub(super) fn interval(&self, x: f64) -> Option<(f64, f64)> {
+        if let [(a, b)] = self.iv[..] {
+            return (x >= a && x <= b).then_some((a, b));
+        }
         self.iv.iter().copied().find(|&(a, b)| x >= a && x <= b)
     }
     /// The lowest and highest covered values (None: nothing covered; NaN
