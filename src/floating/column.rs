@@ -98,6 +98,9 @@ impl Coverage {
     }
     #[inline]
     pub(super) fn contains(&self, x: f64) -> bool {
+        if let [(a, b)] = self.iv[..] {
+            return x >= a && x <= b;
+        }
         self.iv.iter().any(|&(a, b)| x >= a && x <= b)
     }
     #[inline]
