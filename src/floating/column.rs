@@ -713,7 +713,8 @@ fn solve_ortho(
         }
         let g = pz - h.f;
         let gp = d.z - (h.fu * d.x + h.fv * d.y);
-        if gp == 0.0 || !gp.is_finite() {
+        // (not finite: gp − gp is not 0)
+        if gp == 0.0 || crate::surface::finite_zero(gp) != 0.0 {
             failed.push(k);
             continue;
         }
