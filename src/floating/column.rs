@@ -16,7 +16,7 @@ use super::sampling::{Ahead, Frame, Raw, Sample, Sampler};
 use super::{FloatingOptions, ShadingMode};
 use crate::camera::Camera;
 use crate::shade::Shading;
-use crate::surface::HeightField;
+use crate::surface::{finite_zero, HeightField};
 use glam::{DVec2, DVec3};
 use std::cell::RefCell;
 
@@ -714,7 +714,7 @@ fn solve_ortho(
         let g = pz - h.f;
         let gp = d.z - (h.fu * d.x + h.fv * d.y);
         // (not finite: gp − gp is not 0)
-        if gp == 0.0 || crate::surface::finite_zero(gp) != 0.0 {
+        if gp == 0.0 || finite_zero(gp) != 0.0 {
             failed.push(k);
             continue;
         }
@@ -921,7 +921,8 @@ impl SpanCubic {
         let dt = b.t - a.t;
         let dr = b.rho - a.rho;
         let (m0, m1) = (a.drho_dt * dt, b.drho_dt * dt);
-        if dr == 0.0 || !(m0.is_finite() && m1.is_finite()) {
+        // (finite_zero sums: 0 only where every term is finite)
+        if dr == 0.0 || finite_zero(m0) + finite_zero(m1) != 0.0 {
             return None;
         }
         let (al, be) = (m0 / dr, m1 / dr);
@@ -930,7 +931,7 @@ impl SpanCubic {
         }
         let (w0, w1) = (a.wr, b.wr);
         let (n0, n1) = (a.dw_dt * dt, b.dw_dt * dt);
-        if !(n0.is_finite() && n1.is_finite()) {
+        if finite_zero(n0) + finite_zero(n1) != 0.0 {
             return None;
         }
         let ca = 2.0 * (a.rho - b.rho) + m0 + m1;
@@ -1075,7 +1076,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let ok = match r.1 {
             Some(x) => {
                 self.sampler.finish_into(x.t, x.uv, x.h, false, out);
-                out.rho.is_finite() && out.z.is_finite()
+                finite_zero(out.rho) + finite_zero(out.z) == 0.0
             }
             None => false,
         };
@@ -1176,7 +1177,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 (cap, cap)
             } else {
                 let r = pa.drho_dt.abs();
-                if r > 0.0 && r.is_finite() {
+                if r > 0.0 && r < f64::INFINITY {
                     ((AIM * step_px / r).min(cap), (step_px / r).min(cap))
                 } else {
                     (cap, cap)
