@@ -996,7 +996,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
     fn sample(&mut self, t: f64, w_pred: f64) -> Option<Sample> {
         let s = self.sampler.sample(t, w_pred);
         match s {
-            Some(x) if x.rho.is_finite() && x.z.is_finite() => Some(x),
+            Some(x) if finite_zero(x.rho) + finite_zero(x.z) == 0.0 => Some(x),
             _ => None,
         }
     }
@@ -1086,13 +1086,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// Prediction of w' at parameter distance dtau (signed t step) from a.
     #[inline]
     fn predict(a: &Sample, dt: f64) -> f64 {
-        if a.dw_dt.is_finite() {
-            let p = a.wr + a.dw_dt * dt;
-            if p.is_finite() {
-                return p;
-            }
+        let p = a.wr + a.dw_dt * dt;
+        if finite_zero(a.dw_dt) + finite_zero(p) == 0.0 {
+            p
+        } else {
+            a.wr
         }
-        a.wr
     }
 
     fn z_guess(&self, t: f64) -> f64 {
@@ -1752,7 +1751,7 @@ pub(super) fn edge_shading(
 /// Does the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1 stay
 /// within [lo, hi]? (Its extrema in (0, 1) checked.)
 pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f64) -> bool {
-    if !(m0.is_finite() && m1.is_finite()) {
+    if finite_zero(m0) + finite_zero(m1) != 0.0 {
         return false;
     }
     let a = 2.0 * (p0 - p1) + m0 + m1;
