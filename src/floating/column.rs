@@ -1450,10 +1450,12 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 // at once, for the §6.4 edge pass of the spans to come.
                 let fp = fr.pixel;
                 let span = (a.z - b.z).abs();
+                // (the samples' depths are numbers: one comparison orders them)
+                let (z0, z1) = if a.z < b.z { (a.z, b.z) } else { (b.z, a.z) };
                 let seed = super::refine::SpanSeed {
                     topo,
-                    lo: a.z.min(b.z) - 2.0 * fp - span,
-                    hi: a.z.max(b.z) + 2.0 * fp + span,
+                    lo: z0 - 2.0 * fp - span,
+                    hi: z1 + 2.0 * fp + span,
                     n: [a.n, b.n],
                     uv: [a.uv, b.uv],
                     inten: [a.inten, b.inten],
