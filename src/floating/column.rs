@@ -150,7 +150,7 @@ impl Coverage {
         // (the common case, one interval, without the search)
         if let [(a, b)] = self.iv[..] {
             return if x >= a && x <= b {
-                (x - a).min(b - x)
+                min_num(x - a, b - x)
             } else {
                 0.0
             };
@@ -192,6 +192,18 @@ impl Coverage {
             .iter()
             .map(|&(a, b)| (b.min(hi) - a.max(lo)).max(0.0))
             .sum()
+    }
+}
+
+/// `a.min(b)` for a number `b` (not NaN): the same value, `a` where
+/// smaller, else `b` (also for a NaN `a`), in one comparison, where
+/// `f64::min` tests both for NaN.
+#[inline(always)]
+fn min_num(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
     }
 }
 
@@ -1032,7 +1044,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 None => (tau_n, false),
             });
         };
-        let hi = (tau + h_max).min(limit);
+        let hi = min_num(tau + h_max, limit);
         let r = ahead.take(tau + 0.5 * h, hi)?;
         Some(self.finish_raw(r, out))
     }
@@ -1177,7 +1189,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             } else {
                 let r = pa.drho_dt.abs();
                 if r > 0.0 && r < f64::INFINITY {
-                    ((AIM * step_px / r).min(cap), (step_px / r).min(cap))
+                    (min_num(AIM * step_px / r, cap), min_num(step_px / r, cap))
                 } else {
                     (cap, cap)
                 }
