@@ -283,6 +283,8 @@ struct Sweep<'c, 'a> {
     detect: bool,
     /// Has the coverage grown since the last early-exit check?
     grew: bool,
+    /// The sampler's domain bounds ([`Sampler::bounds`]) for its look-ahead.
+    bounds: [f64; 4],
 }
 
 /// Buffers a worker reuses from column to column.
@@ -498,6 +500,7 @@ async unsafe fn column_task(
         shading: ctx.shading,
         shade: ctx.opts.shading == ShadingMode::Intensity || ctx.opts.corrections.any_detection(),
     };
+    let bounds = sampler.bounds();
     let mut sw = Sweep {
         ctx,
         sampler,
@@ -530,6 +533,7 @@ async unsafe fn column_task(
         pool,
         detect: ctx.opts.corrections.any_detection(),
         grew: false,
+        bounds,
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
@@ -1066,7 +1070,18 @@ impl<'c, 'a> Sweep<'c, 'a> {
             let mut p = self.pool.borrow_mut();
             let p = &mut *p;
             let start = p.u.len();
-            let n = ahead.plan_points(&self.sampler, tau, h, limit, snap, tt, &mut p.u, &mut p.v);
+            let b = &self.bounds;
+            let n = ahead.plan_points(
+                &self.sampler,
+                tau,
+                h,
+                limit,
+                snap,
+                tt,
+                b,
+                &mut p.u,
+                &mut p.v,
+            );
             (start, n)
         };
         if n > 0 {

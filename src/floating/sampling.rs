@@ -336,7 +336,7 @@ impl<'a> Sampler<'a> {
 
     /// The domain with its rounding margin (as in `inside`): u0, u1, v0, v1.
     #[inline]
-    fn bounds(&self) -> [f64; 4] {
+    pub(super) fn bounds(&self) -> [f64; 4] {
         let d = &self.frame.domain;
         let eu = 1e-12 * (d.u1 - d.u0).abs().max(d.u0.abs().max(d.u1.abs()));
         let ev = 1e-12 * (d.v1 - d.v0).abs().max(d.v0.abs().max(d.v1.abs()));
@@ -580,7 +580,8 @@ impl Ahead {
     /// [`Self::plan`] for a column whose plane is vertical (κ = 0, `tt`
     /// the sampling parameter of a sweep parameter): the batch's points
     /// inside the domain are appended to `u` and `v`, to be evaluated (with
-    /// other columns' points) for [`Self::fill_points`]. Returns how many.
+    /// other columns' points) for [`Self::fill_points`]; `b` the sampler's
+    /// [`Sampler::bounds`] (set up once per column). Returns how many.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     pub fn plan_points(
@@ -591,15 +592,15 @@ impl Ahead {
         limit: f64,
         snap: f64,
         tt: impl Fn(f64) -> f64,
+        b: &[f64; 4],
         u: &mut Vec<f64>,
         v: &mut Vec<f64>,
     ) -> usize {
         self.plan(tau, h, limit, snap);
-        let b = sampler.bounds();
         let n0 = u.len();
         self.smps.clear();
         for &x in &self.taus {
-            let r = sampler.point(tt(x), &b);
+            let r = sampler.point(tt(x), b);
             if let Some(p) = &r {
                 u.push(p.uv.x);
                 v.push(p.uv.y);
