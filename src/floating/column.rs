@@ -1489,7 +1489,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 };
                 let k = self.spans.len() as u32;
                 let mut queued = false;
-                for i in i0..=i1 {
+                for i in i0..i1 + 1 {
                     let row = i as f64;
                     if self.cov.contains(row) {
                         continue;
@@ -1514,7 +1514,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                     self.spans.push(seed);
                 }
             } else {
-                for i in i0..=i1 {
+                for i in i0..i1 + 1 {
                     let x = i as f64;
                     if self.cov.contains(x) {
                         continue;
@@ -1556,7 +1556,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let fr = self.ctx.frame;
         let upward = b.rho < a.rho;
         let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };
-        for i in i0..=i1 {
+        for i in i0..i1 + 1 {
             let x = i as f64;
             let q = &out[i as usize];
             // Skip pixels set or reached before, and those this span sets
