@@ -197,10 +197,20 @@ impl Coverage {
 
 /// `a.min(b)` for a number `b` (not NaN): the same value, `a` where
 /// smaller, else `b` (also for a NaN `a`), in one comparison, where
-/// `f64::min` tests both for NaN.
+/// `f64::min` tests both for NaN. Both projections' sweeps.
 #[inline(always)]
-fn min_num(a: f64, b: f64) -> f64 {
+pub(super) fn min_num(a: f64, b: f64) -> f64 {
     if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `a.max(b)` for a number `b` (not NaN), as [`min_num`].
+#[inline(always)]
+pub(super) fn max_num(a: f64, b: f64) -> f64 {
+    if a > b {
         a
     } else {
         b

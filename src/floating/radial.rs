@@ -33,8 +33,8 @@
 //! on them ([`two_pass_bins`]).
 
 use super::artifacts;
+use super::column::{max_num, min_num, SKIP_MARGIN, SKIP_MIN};
 use super::column::{ColumnStats, Ctx, Pixel};
-use super::column::{SKIP_MARGIN, SKIP_MIN};
 use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
 use super::SharedOut;
@@ -1925,28 +1925,6 @@ fn bytes8(set: &[bool], a: usize) -> u64 {
 #[inline(always)]
 fn positive_finite(x: f64) -> bool {
     x > 0.0 && x * 0.0 == 0.0
-}
-
-/// `a.max(b)` for a number `b` (not NaN): the same value, `a` where
-/// greater, else `b` (also for a NaN `a`), in one comparison, where
-/// `f64::max` tests both for NaN.
-#[inline(always)]
-fn max_num(a: f64, b: f64) -> f64 {
-    if a > b {
-        a
-    } else {
-        b
-    }
-}
-
-/// `a.min(b)` for a number `b` (see [`max_num`]).
-#[inline(always)]
-fn min_num(a: f64, b: f64) -> f64 {
-    if a < b {
-        a
-    } else {
-        b
-    }
 }
 
 /// [`HeightSample::is_finite`] in float operations (see
