@@ -158,7 +158,7 @@ impl Coverage {
         self.iv
             .iter()
             .find(|&&(a, b)| x >= a && x <= b)
-            .map(|&(a, b)| (x - a).min(b - x))
+            .map(|&(a, b)| min_num(x - a, b - x))
             .unwrap_or(0.0)
     }
     /// The covered interval holding x.
@@ -205,6 +205,14 @@ pub(super) fn min_num(a: f64, b: f64) -> f64 {
     } else {
         b
     }
+}
+
+/// 0 < x < ∞, in two float comparisons (x·0 is 0 for finite x, NaN for
+/// ±∞ and NaN): the compiler's own test of finiteness is a dozen integer
+/// operations.
+#[inline(always)]
+pub(super) fn positive_finite(x: f64) -> bool {
+    x > 0.0 && x * 0.0 == 0.0
 }
 
 /// `a.max(b)` for a number `b` (not NaN), as [`min_num`].
@@ -274,9 +282,8 @@ struct Sweep<'c, 'a> {
     sampler: Sampler<'a>,
     col: f64,
     cov: Coverage,
-    h: usize,
-    /// `h` as a float (the rows' bounds, often wanted).
-    hf: f64,
+    /// The image's rows, as a float (the sweep's row bounds).
+    h: f64,
     stats: ColumnStats,
     jobs: Vec<super::refine::Job>,
     /// Pixels queued by orthographic spans, and those spans.
@@ -516,8 +523,7 @@ async unsafe fn column_task(
         sampler,
         col,
         cov: Coverage::default(),
-        h: ctx.cam.height,
-        hf: ctx.cam.height as f64,
+        h: ctx.cam.height as f64,
         stats: ColumnStats::default(),
         jobs: {
             let mut j = std::mem::take(&mut sc.jobs);
@@ -644,30 +650,15 @@ async unsafe fn column_task(
 pub(super) struct OrthoScratch {
     /// Per job: its ray origin.
     orig: Vec<DVec3>,
-    /// The first round's points and jobs, their values, the jobs still
-    /// moving after it (with their new λ) and those that failed.
-    u: Vec<f64>,
-    v: Vec<f64>,
-    live: Vec<u32>,
-    hs: Vec<crate::surface::HeightSample>,
-    moving: Vec<(u32, f64)>,
-    failed: Vec<u32>,
     newton: super::refine::NewtonScratch,
 }
 
 /// The exact solve of the pixels of orthographic column `col` seeded by
-/// their spans: Newton on the camera's rays, with the ray origins computed
-/// once from the rows and each pixel written once, when its solve ends (an
-/// exact hit, or its span's interpolation should the solve fail): into
-/// `out`, or with `direct`, straight into the render's buffers. Returns the
-/// number of failures and of evaluations.
-///
-/// The first round, which ends the solve of most pixels (the seeds lie
-/// within about 10⁻³ px of their hits), is [`super::refine::newton`]'s
-/// first round written out for these rays (one direction, each job's
-/// bracket its span's); the jobs still moving go on in
-/// [`super::refine::newton`] from where it left them, for the rounds left.
-/// The same steps as `newton` alone, bit for bit.
+/// their spans: [`super::refine::newton`] on the camera's rays, with the
+/// ray origins computed once from the rows and each pixel written once,
+/// when its solve ends (an exact hit, or its span's interpolation should
+/// the solve fail): into `out`, or with `direct`, straight into the
+/// render's buffers. Returns the number of failures and of evaluations.
 #[inline(never)]
 fn solve_ortho(
     ctx: &Ctx<'_>,
@@ -685,118 +676,34 @@ fn solve_ortho(
     // hoisted.
     let (xs, _) = cam.pixel_to_screen(0.0, col);
     let base = cam.eye + (xs * cam.pixel) * cam.r;
-    let OrthoScratch {
-        orig,
-        u,
-        v,
-        live,
-        hs,
-        moving,
-        failed,
-        newton,
-    } = sc;
+    let OrthoScratch { orig, newton } = sc;
     orig.clear();
     orig.extend(jobs.iter().map(|j| {
         let (_, ys) = cam.pixel_to_screen(j.slot as f64, col);
         base + (ys * cam.pixel) * cam.up
     }));
     let fp = ctx.frame.pixel;
-    let dom = ctx.frame.domain;
-    let tol = ctx.opts.refine_tol * fp;
-    let bracket = |k: usize| {
-        let s = &spans[jobs[k].span as usize];
-        (s.lo, s.hi)
-    };
-    // The first round (see above).
-    u.clear();
-    v.clear();
-    live.clear();
-    moving.clear();
-    failed.clear();
-    for (k, (j, o)) in jobs.iter().zip(orig.iter()).enumerate() {
-        let p = *o + j.lam * d;
-        if dom.contains(p.x, p.y) {
-            u.push(p.x);
-            v.push(p.y);
-            live.push(k as u32);
-        } else {
-            failed.push(k as u32);
-        }
-    }
-    // Grown only: a height field's batch writes every element.
-    if hs.len() < live.len() {
-        hs.resize(live.len(), Default::default());
-    }
-    let hs = &mut hs[..live.len()];
-    ctx.field.eval_batch(u, v, hs);
-    let mut evals = live.len() as u64;
-    for (&k, h) in live.iter().zip(hs.iter()) {
-        let (j, o) = (&jobs[k as usize], orig[k as usize]);
-        let pz = (o + j.lam * d).z;
-        if !h.is_finite() {
-            failed.push(k);
-            continue;
-        }
-        let g = pz - h.f;
-        let gp = d.z - (h.fu * d.x + h.fv * d.y);
-        // (not finite: gp − gp is not 0)
-        if gp == 0.0 || finite_zero(gp) != 0.0 {
-            failed.push(k);
-            continue;
-        }
-        let dl = g / gp;
-        let l = j.lam - dl;
-        let (lo, hi) = bracket(k as usize);
-        if !(l >= lo && l <= hi) {
-            failed.push(k);
-            continue;
-        }
-        if dl.abs() <= tol {
-            let q = o + l * d;
-            if !dom.contains(q.x, q.y) {
-                failed.push(k);
-                continue;
-            }
+    let mut evals = super::refine::newton(
+        ctx,
+        jobs.len(),
+        |k| jobs[k].lam,
+        |k| (orig[k], d),
+        |k| {
+            let s = &spans[jobs[k].span as usize];
+            (s.lo, s.hi, fp)
+        },
+        newton,
+        |k, l, q, h| {
+            let j = &jobs[k];
             put_exact(ctx, out, direct, j, &spans[j.span as usize], l, q, h);
-        } else {
-            moving.push((k, l));
-        }
-    }
-    // The rounds left, from the first round's λ.
-    if ctx.opts.refine_iters > 1 {
-        let opts = FloatingOptions {
-            refine_iters: ctx.opts.refine_iters - 1,
-            ..*ctx.opts
-        };
-        let rest = Ctx {
-            opts: &opts,
-            ..*ctx
-        };
-        let moving = &*moving;
-        evals += super::refine::newton(
-            &rest,
-            moving.len(),
-            |m| moving[m].1,
-            |m| (orig[moving[m].0 as usize], d),
-            |m| {
-                let (lo, hi) = bracket(moving[m].0 as usize);
-                (lo, hi, fp)
-            },
-            newton,
-            |m, l, q, h| {
-                let j = &jobs[moving[m].0 as usize];
-                put_exact(ctx, out, direct, j, &spans[j.span as usize], l, q, h);
-            },
-        );
-        failed.extend(newton.failed().iter().map(|&m| moving[m as usize].0));
-    } else {
-        failed.extend(moving.iter().map(|&(k, _)| k));
-    }
+        },
+    );
+    let failed = newton.failed();
     // A failed pixel's ray marched over its span's bracket (widened by
     // eight pixels) from the side the span reveals; with no crossing there,
     // it is left unset for the searches after the sweeps (`ctx.searched`)
     // or keeps its span's interpolation.
-    for &k in failed.iter() {
+    for &k in failed {
         let j = &jobs[k as usize];
         let s = &spans[j.span as usize];
         let o = orig[k as usize];
@@ -1012,7 +919,7 @@ impl SpanCubic {
 impl<'c, 'a> Sweep<'c, 'a> {
     #[inline]
     fn clamp_row(&self, r: f64) -> f64 {
-        r.clamp(-2.0, self.hf + 1.0)
+        r.clamp(-2.0, self.h + 1.0)
     }
 
     fn valid(&self, s: &Option<Sample>) -> bool {
@@ -1182,7 +1089,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 _ => len,
             };
             let mut skip = 0.0;
-            let hf = self.hf;
+            let hf = self.h;
             // (on the picture, the common case: one test)
             let outside = has_prev && !(pa.rho >= -SKIP_MARGIN && pa.rho <= hf - 1.0 + SKIP_MARGIN);
             // (or in a hole, or outside the domain: no sample to step from)
@@ -1213,7 +1120,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 (cap, cap)
             } else {
                 let r = pa.drho_dt.abs();
-                if r > 0.0 && r < f64::INFINITY {
+                if positive_finite(r) {
                     (min_num(AIM * step_px / r, cap), min_num(step_px / r, cap))
                 } else {
                     (cap, cap)
@@ -1310,7 +1217,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
             }
             // Early exit once every row is covered (checked only when
             // the coverage grew).
-            if std::mem::take(&mut self.grew) && self.cov.covers(-0.5, self.hf - 0.5) {
+            if std::mem::take(&mut self.grew) && self.cov.covers(-0.5, self.h - 0.5) {
                 self.stats.early_exit += 1;
                 return;
             }
@@ -1338,7 +1245,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let (y0, y1) = (ya.min(yb) + wl.min(wh), ya.max(yb) + wl.max(wh));
         // (rows grow downwards: the highest y is the smallest row)
         let (r0, r1) = (fr.row(y1, 1.0), fr.row(y0, 1.0));
-        r1 < -SKIP_MARGIN || r0 > self.hf - 1.0 + SKIP_MARGIN
+        r1 < -SKIP_MARGIN || r0 > self.h - 1.0 + SKIP_MARGIN
     }
 
     /// Does the curve stay inside the covered rows between a and b? Both
@@ -1562,7 +1469,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         }
         fine.add(elo, ehi);
         let i0 = ((elo - 0.5).floor() + 1.0).max(0.0) as i64;
-        let i1 = ((ehi + 0.5).ceil() - 1.0).min(self.hf - 1.0) as i64;
+        let i1 = ((ehi + 0.5).ceil() - 1.0).min(self.h - 1.0) as i64;
         let fr = self.ctx.frame;
         let upward = b.rho < a.rho;
         let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };

@@ -33,7 +33,7 @@
 //! on them ([`two_pass_bins`]).
 
 use super::artifacts;
-use super::column::{max_num, min_num, SKIP_MARGIN, SKIP_MIN};
+use super::column::{max_num, min_num, positive_finite, SKIP_MARGIN, SKIP_MIN};
 use super::column::{ColumnStats, Ctx, Pixel};
 use super::sampling::{Ahead, Raw, Sample, Scratch};
 use super::ShadingMode;
@@ -1806,7 +1806,7 @@ fn sweep_together(
             batch.clear();
             for (k, &rho) in sw.ahead.ts.iter().enumerate() {
                 let hs = sc.hs[at + k];
-                batch.push(finite(&hs).then_some(Raw {
+                batch.push(hs.is_finite().then_some(Raw {
                     t: rho,
                     s: 0.0,
                     uv: DVec2::new(sc.u[at + k], sc.v[at + k]),
@@ -1917,21 +1917,6 @@ fn sort_rays(rays: &mut [Ray]) {
 fn bytes8(set: &[bool], a: usize) -> u64 {
     let b: &[bool; 8] = set[a..a + 8].try_into().expect("eight flags");
     u64::from_le_bytes(b.map(u8::from))
-}
-
-/// 0 < x < ∞, in two float comparisons (x·0 is 0 for finite x, NaN for
-/// ±∞ and NaN): the compiler's own test of finiteness is a dozen integer
-/// operations.
-#[inline(always)]
-fn positive_finite(x: f64) -> bool {
-    x > 0.0 && x * 0.0 == 0.0
-}
-
-/// [`HeightSample::is_finite`] in float operations (see
-/// [`positive_finite`]).
-#[inline(always)]
-fn finite(h: &HeightSample) -> bool {
-    h.f * 0.0 + h.fu * 0.0 + h.fv * 0.0 == 0.0
 }
 
 /// The sweep's elevation coordinate of the direction (h, z) (horizontal
@@ -2798,13 +2783,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let cap = opts.max_step() * max_num(fp, 1e-12 * scale);
                 // (the elevation rate in local pixels)
                 let r = a.drho_dt.abs() * st.rate;
-                // (the depth of a.rho in the coverage, by min_num: the
-                // interval's ends and a.rho in it are numbers)
-                let depth = self
-                    .cov
-                    .interval(a.rho)
-                    .map_or(0.0, |(lo, hi)| min_num(a.rho - lo, hi - a.rho));
-                let deep = depth > 2.0 * opts.step();
+                let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
                 if outside && self.try_skip(st, cap) {
                     (st.hstep, st.hstep)
                 } else if outside {

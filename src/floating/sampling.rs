@@ -258,7 +258,6 @@ pub struct Raw {
 pub struct Scratch {
     pub u: Vec<f64>,
     pub v: Vec<f64>,
-    pub idx: Vec<usize>,
     pub hs: Vec<HeightSample>,
 }
 
@@ -266,7 +265,6 @@ impl Scratch {
     pub fn clear(&mut self) {
         self.u.clear();
         self.v.clear();
-        self.idx.clear();
         self.hs.clear();
     }
 }
