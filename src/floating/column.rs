@@ -791,35 +791,42 @@ fn put_solved(out: &mut [Pixel], direct: Option<&Direct<'_, '_>>, slot: u32, px:
     }
 }
 
-/// Range of the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1
-/// over [0, 1] (its extrema in (0, 1) included).
-pub(crate) fn hermite_range(p0: f64, p1: f64, m0: f64, m1: f64) -> (f64, f64) {
-    let (mut lo, mut hi) = (p0.min(p1), p0.max(p1));
-    if !(m0.is_finite() && m1.is_finite()) {
-        return (lo, hi);
-    }
+/// The critical points in (0, 1) of the cubic Hermite through (0, p0),
+/// (1, p1) with slopes m0, m1 (finite), each given to `at` as (x, p(x)).
+#[inline]
+fn hermite_extrema(p0: f64, p1: f64, m0: f64, m1: f64, mut at: impl FnMut(f64, f64)) {
     let a = 2.0 * (p0 - p1) + m0 + m1;
     let b = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
     let c = m0;
-    let mut at = |x: f64| {
+    let mut inside = |x: f64| {
         if x > 0.0 && x < 1.0 {
-            let p = ((a * x + b) * x + c) * x + p0;
-            lo = lo.min(p);
-            hi = hi.max(p);
+            at(x, ((a * x + b) * x + c) * x + p0);
         }
     };
     // p'(x) = 3a x² + 2b x + c.
     if a.abs() < 1e-300 {
         if b != 0.0 {
-            at(-c / (2.0 * b));
+            inside(-c / (2.0 * b));
         }
     } else {
         let disc = b * b - 3.0 * a * c;
         if disc >= 0.0 {
             let sq = disc.sqrt();
-            at((-b + sq) / (3.0 * a));
-            at((-b - sq) / (3.0 * a));
+            inside((-b + sq) / (3.0 * a));
+            inside((-b - sq) / (3.0 * a));
         }
+    }
+}
+
+/// Range of the cubic Hermite through (0, p0), (1, p1) with slopes m0, m1
+/// over [0, 1] (its extrema in (0, 1) included).
+pub(crate) fn hermite_range(p0: f64, p1: f64, m0: f64, m1: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (p0.min(p1), p0.max(p1));
+    if m0.is_finite() && m1.is_finite() {
+        hermite_extrema(p0, p1, m0, m1, |_, p| {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        });
     }
     (lo, hi)
 }
@@ -1053,7 +1060,11 @@ impl<'c, 'a> Sweep<'c, 'a> {
     async fn sweep(&mut self, t_start: f64, sign: f64, len: f64, out: &mut [Pixel]) {
         let opts = self.ctx.opts;
         let fr = self.ctx.frame;
-        let step_px = opts.step();
+        // An orthographic column whose pixels are solved exactly: longer
+        // steps by default, each held to a bend and crests sampled (see
+        // `bend_step` and `crest`).
+        let exact = self.ctx.refine && !fr.persp;
+        let step_px = opts.column_step(exact);
         let tt = |tau: f64| t_start + sign * tau;
         let w0 = self.ctx.cam.view.target.z - fr.origin.z;
         let mut tau = 0.0;
@@ -1075,6 +1086,9 @@ impl<'c, 'a> Sweep<'c, 'a> {
         // Stretches outside the image stepped over at once (orthographic
         // columns): not before this τ again after a try that failed.
         let skips = !fr.persp && opts.skip_outside;
+        // |ρ''| over the last step taken (0: unknown), for `bend_step`.
+        let mut bend = 0.0f64;
+        let crests = exact && !self.detect;
         let mut no_skip_until = f64::NEG_INFINITY;
         while tau < len && steps < MAX_STEPS {
             steps += 1;
@@ -1121,7 +1135,11 @@ impl<'c, 'a> Sweep<'c, 'a> {
             } else {
                 let r = pa.drho_dt.abs();
                 if positive_finite(r) {
-                    (min_num(AIM * step_px / r, cap), min_num(step_px / r, cap))
+                    let mut hm = step_px / r;
+                    if exact && bend > 0.0 {
+                        hm = min_num(hm, bend_step(bend));
+                    }
+                    (min_num(AIM * hm, cap), min_num(hm, cap))
                 } else {
                     (cap, cap)
                 }
@@ -1161,8 +1179,14 @@ impl<'c, 'a> Sweep<'c, 'a> {
                             self.stats.walls += 1;
                         }
                         let from = if wall { None } else { self.correct(a, b, out) };
+                        let from = match from {
+                            None if crests && !wall => self.crest(a, b, out),
+                            f => f,
+                        };
                         self.span(from.as_ref().unwrap_or(a), b, wall, out);
                         last_w = b.wr;
+                        let k = ((b.drho_dt - a.drho_dt) / (b.t - a.t)).abs();
+                        bend = if k.is_finite() { k } else { 0.0 };
                         // The candidate becomes the previous sample.
                         std::mem::swap(&mut pa, &mut pb);
                         tau = tau_n;
@@ -1345,6 +1369,29 @@ impl<'c, 'a> Sweep<'c, 'a> {
             }
         }
         Some(prev)
+    }
+
+    /// A crest between samples a and b: where the cubic through their rows
+    /// and slopes (§5.2) reaches beyond both by a quarter row or more, into
+    /// rows not yet covered, one more sample at the cubic's extremum, and
+    /// the span from a to it drawn; returns it (the caller's span to b
+    /// starts there). Without it the crest's top between the samples is
+    /// left to the searches after the sweeps, and a farther sheet may take
+    /// its rows first.
+    #[inline(never)]
+    fn crest(&mut self, a: &Sample, b: &Sample, out: &mut [Pixel]) -> Option<Sample> {
+        let dt = b.t - a.t;
+        let (x, r) = hermite_overshoot(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt)?;
+        let (ra, rb) = (self.clamp_row(a.rho), self.clamp_row(b.rho));
+        let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+        let r = self.clamp_row(r);
+        let (elo, ehi) = if r < lo { (r, lo) } else { (hi, r) };
+        if ehi - elo < 0.25 || self.cov.covers(elo, ehi) {
+            return None;
+        }
+        let m = self.sample(a.t + x * dt, Self::predict(a, x * dt))?;
+        self.span(a, &m, false, out);
+        Some(m)
     }
 
     /// Fill the rows newly revealed between samples a and b.
@@ -1716,9 +1763,71 @@ pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f6
     ok((-b + sq) / (3.0 * a)) && ok((-b - sq) / (3.0 * a))
 }
 
+/// Largest row deviation from the chord allowed over a step of an exactly
+/// solved orthographic column, in rows (see [`bend_step`]).
+pub(super) const BEND: f64 = 0.05;
+
+/// The longest step (in t) over which a row curve bending at |ρ''| =
+/// `rho2` (rows per t²) stays within [`BEND`] rows of its chord: the
+/// deviation of a parabola from its chord over a step h is |ρ''| h² / 8.
+/// With it the row gap between samples can be 5 pixels where the curve is
+/// nearly straight (the cubic between them still seeds each pixel's solve
+/// to well under the solve's tolerance) while fine ripples and folds keep
+/// short steps, so that features between samples are not stepped over.
+#[inline]
+pub(super) fn bend_step(rho2: f64) -> f64 {
+    (8.0 * BEND / rho2).sqrt()
+}
+
+/// The extremum in (0, 1) of the cubic Hermite through (0, p0), (1, p1)
+/// with slopes m0, m1 that reaches farthest beyond [min(p0, p1), max(p0,
+/// p1)], as (x, p(x)); `None` where the cubic stays within (most spans:
+/// the Fritsch–Carlson condition tells those at once).
+pub(crate) fn hermite_overshoot(p0: f64, p1: f64, m0: f64, m1: f64) -> Option<(f64, f64)> {
+    let dr = p1 - p0;
+    if m0 * dr >= 0.0 && m1 * dr >= 0.0 && m0 * m0 + m1 * m1 <= 9.0 * dr * dr {
+        return None;
+    }
+    if finite_zero(m0) + finite_zero(m1) != 0.0 {
+        return None;
+    }
+    let (lo, hi) = if p0 <= p1 { (p0, p1) } else { (p1, p0) };
+    let beyond = |v: f64| (lo - v).max(v - hi);
+    let mut best: Option<(f64, f64)> = None;
+    hermite_extrema(p0, p1, m0, m1, |x, v| {
+        if beyond(v) > 0.0 && best.is_none_or(|(_, w)| beyond(v) > beyond(w)) {
+            best = Some((x, v));
+        }
+    });
+    best
+}
+
 #[cfg(test)]
 mod row_tests {
     use super::{ceil_i, floor_i};
+
+    /// A crest's overshoot is found where the cubic leaves its ends' rows,
+    /// at the cubic's extremum, and never for a monotone span.
+    #[test]
+    fn hermite_overshoot_finds_the_crest() {
+        use super::hermite_overshoot;
+        // Monotone (slopes along the span, small): nothing.
+        assert!(hermite_overshoot(0.0, 3.0, 2.0, 4.0).is_none());
+        // A crest: from row 0 up past row 3 and back (slopes 6, -3).
+        let (x, r) = hermite_overshoot(0.0, 3.0, 6.0, -3.0).expect("crest");
+        let p = |x: f64| {
+            (2.0 * (0.0 - 3.0) + 6.0 - 3.0) * x * x * x + (9.0 - 12.0 + 3.0) * x * x + 6.0 * x
+        };
+        assert!((p(x) - r).abs() < 1e-12 && r > 3.0);
+        for k in 1..100 {
+            assert!(p(k as f64 / 100.0) <= r + 1e-12);
+        }
+        // Downwards (rows decreasing past the lower end).
+        let (_, r) = hermite_overshoot(3.0, 0.0, -2.0, 6.0).expect("dip");
+        assert!(r < 0.0);
+        // Non-finite slopes: none.
+        assert!(hermite_overshoot(0.0, 1.0, f64::NAN, 1.0).is_none());
+    }
 
     /// The integer ceil and floor agree with `f64::ceil` and `f64::floor`
     /// over the clamped row range, integers and their neighbours included.

@@ -43,8 +43,10 @@ pub struct FloatingOptions {
     pub refine: bool,
     /// Largest row gap between consecutive samples, in pixels (the sample
     /// step adapts to the projected step). None: 3, or 1 with `coverage`
-    /// (whose sub-pixel silhouettes come from the cubic between samples).
-    /// With the exact solve, the cubic through two samples 3 pixels apart,
+    /// (whose sub-pixel silhouettes come from the cubic between samples),
+    /// or 5 for orthographic columns solved exactly, where each step is
+    /// also held to a bend ([`FloatingOptions::column_step`]). With the
+    /// exact solve, the cubic through two samples 3 to 5 pixels apart,
     /// with their exact slopes, seeds each pixel to about 1e-3 px, so that
     /// one evaluation per pixel mostly settles it.
     pub step: Option<f64>,
@@ -113,6 +115,18 @@ impl FloatingOptions {
     #[inline]
     pub fn step(&self) -> f64 {
         self.step.unwrap_or(if self.coverage { 1.0 } else { 3.0 })
+    }
+
+    /// The sample step in rows of an orthographic column sweep, `exact`
+    /// whether its pixels are solved on their rays: 5 by default there
+    /// (each step also held to a bend, and crests between samples sampled:
+    /// see `column::bend_step`), else [`FloatingOptions::step`].
+    #[inline]
+    pub fn column_step(&self, exact: bool) -> f64 {
+        match self.step {
+            None if exact && !self.coverage => 5.0,
+            _ => self.step(),
+        }
     }
 
     /// The largest step in footprints (see [`FloatingOptions::max_step`]).
