@@ -42,10 +42,11 @@ pub struct FloatingOptions {
     /// Solve each revealed pixel exactly on its ray (depth, normal, uv).
     pub refine: bool,
     /// Largest row gap between consecutive samples, in pixels (the sample
-    /// step adapts to the projected step). None: 3, or 1 with `coverage`
+    /// step adapts to the projected step). None: 1 with `coverage`
     /// (whose sub-pixel silhouettes come from the cubic between samples),
-    /// or 5 for orthographic columns solved exactly, where each step is
-    /// also held to a bend ([`FloatingOptions::column_step`]). With the
+    /// else 5 where pixels are solved exactly (`refine`), each step there
+    /// also held to a bend ([`FloatingOptions::sweep_step`]), and 3
+    /// without. With the
     /// exact solve, the cubic through two samples 3 to 5 pixels apart,
     /// with their exact slopes, seeds each pixel to about 1e-3 px, so that
     /// one evaluation per pixel mostly settles it.
@@ -117,12 +118,13 @@ impl FloatingOptions {
         self.step.unwrap_or(if self.coverage { 1.0 } else { 3.0 })
     }
 
-    /// The sample step in rows of an orthographic column sweep, `exact`
-    /// whether its pixels are solved on their rays: 5 by default there
-    /// (each step also held to a bend, and crests between samples sampled:
-    /// see `column::bend_step`), else [`FloatingOptions::step`].
+    /// The sample step in rows of a column's sweep (orthographic) or a
+    /// bin's (perspective, in local pixels), `exact` whether its pixels
+    /// are solved on their rays: 5 by default there (each step also held
+    /// to a bend, and crests between samples sampled: see
+    /// `column::bend_step`), else [`FloatingOptions::step`].
     #[inline]
-    pub fn column_step(&self, exact: bool) -> f64 {
+    pub fn sweep_step(&self, exact: bool) -> f64 {
         match self.step {
             None if exact && !self.coverage => 5.0,
             _ => self.step(),

@@ -1863,6 +1863,9 @@ struct RunState {
     /// The current step is such a stretch: its candidate lies in it, so
     /// its gap to the previous sample is no reason to retry.
     skipping: bool,
+    /// |ρ''| in local pixels over the last step taken (0: unknown), for
+    /// [`super::column::bend_step`].
+    bend: f64,
 }
 
 /// Sort a bin's rays by θ, ties by pixel index (keys are unique, so the
@@ -2731,6 +2734,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.rho = r0;
         st.r1 = r1;
         st.steps = 0;
+        st.bend = 0.0;
         st.first = true;
         st.skips = ctx.opts.skip_outside;
         st.no_skip_until = f64::NEG_INFINITY;
@@ -2783,7 +2787,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 let cap = opts.max_step() * max_num(fp, 1e-12 * scale);
                 // (the elevation rate in local pixels)
                 let r = a.drho_dt.abs() * st.rate;
-                let deep = self.cov.depth(a.rho) > 2.0 * opts.step();
+                let step = self.step();
+                let deep = self.cov.depth(a.rho) > 2.0 * step;
                 if outside && self.try_skip(st, cap) {
                     (st.hstep, st.hstep)
                 } else if outside {
@@ -2794,10 +2799,11 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     // without end (as in the orthographic sweep).
                     (cap, cap)
                 } else if !deep && positive_finite(r) {
-                    (
-                        min_num(opts.step() / r, cap),
-                        min_num(super::column::AIM * opts.step() / r, cap),
-                    )
+                    let mut hm = step / r;
+                    if ctx.refine && st.bend > 0.0 {
+                        hm = min_num(hm, super::column::bend_step(st.bend));
+                    }
+                    (min_num(hm, cap), min_num(super::column::AIM * hm, cap))
                 } else {
                     (cap, cap)
                 }
@@ -2958,8 +2964,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// batch (its parameters planned into `self.ahead.ts`), false when the
     /// sweep is over.
     fn drive(&mut self, st: &mut RunState, mut got: Option<f64>) -> bool {
-        let ctx = self.ctx;
-        let opts = ctx.opts;
         if got.is_none() && !self.step_start(st) {
             return false;
         }
@@ -2997,27 +3001,36 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     // stretch wholly above or below them shows no gap)
                     let clamp = |r: f64| min_num(max_num(r, st.th_lo - 2.0), st.th_hi + 2.0);
                     let gap = (clamp(b.rho) - clamp(a.rho)).abs() * max_num(st.rate, rb);
-                    let hidden = gap > opts.step() && (st.skipping || self.hidden(a, b));
+                    let step = self.step();
+                    let hidden = gap > step && (st.skipping || self.hidden(a, b));
                     let ulps = super::column::retry_floor(rho);
-                    if gap > opts.step()
+                    if gap > step
                         && !hidden
                         && st.halvings < 40
                         && (rn - rho) > (1e-9 * self.fp_at(a)).max(2.0 * ulps)
                     {
-                        st.hstep =
-                            ((rn - rho) * (0.9 * opts.step() / gap).clamp(0.05, 0.5)).max(ulps);
+                        st.hstep = ((rn - rho) * (0.9 * step / gap).clamp(0.05, 0.5)).max(ulps);
                         st.h_max = st.hstep;
                         st.halvings += 1;
                         continue;
                     }
-                    let wall = gap > opts.step() && !hidden;
+                    let wall = gap > step && !hidden;
                     if wall {
                         self.stats.walls += 1;
                     }
-                    match if wall { None } else { self.correct(a, b) } {
+                    let rate = max_num(st.rate, rb);
+                    let from = if wall { None } else { self.correct(a, b) };
+                    let from = match from {
+                        None if !wall && self.crests() => self.crest(a, b, rate, clamp),
+                        f => f,
+                    };
+                    match from {
                         Some(from) => self.span(&from, b, wall),
                         None => self.span(a, b, wall),
                     }
+                    // |ρ''| over the step, in local pixels.
+                    let k = ((b.drho_dt - a.drho_dt) / (b.t - a.t)).abs() * rate;
+                    st.bend = if k.is_finite() { k } else { 0.0 };
                     // (b is the next step's previous sample)
                     st.rate = rb;
                 }
@@ -3252,6 +3265,48 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// §5 corrections between samples a and b: the spans up to the last
     /// inserted sample, which the span to b then starts from (None: no
     /// problem detected, the span starts from a).
+    /// The sample step in local pixels ([`FloatingOptions::sweep_step`]).
+    #[inline]
+    fn step(&self) -> f64 {
+        self.ctx.opts.sweep_step(self.ctx.refine)
+    }
+
+    /// Crests between samples get a sample at their top (exactly solved
+    /// pixels, no §5 detection: see [`Self::crest`]).
+    #[inline]
+    fn crests(&self) -> bool {
+        self.ctx.refine && !self.ctx.opts.corrections.any_detection()
+    }
+
+    /// A crest between samples a and b (as the orthographic column's,
+    /// `column::Sweep::crest`): where the cubic through their elevations
+    /// and slopes reaches beyond both by a quarter of a local pixel or more
+    /// (`rate` local pixels per unit of elevation; elevations by `clamp`
+    /// to near the bin's rays), into elevations not yet covered, one more sample at the cubic's extremum and the span from
+    /// a to it drawn; returns it (the span to b starts there).
+    #[inline(never)]
+    fn crest(
+        &mut self,
+        a: &Sample,
+        b: &Sample,
+        rate: f64,
+        clamp: impl Fn(f64) -> f64,
+    ) -> Option<Sample> {
+        let dt = b.t - a.t;
+        let (x, r) =
+            super::column::hermite_overshoot(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt)?;
+        let (ca, cb, r) = (clamp(a.rho), clamp(b.rho), clamp(r));
+        let (lo, hi) = if ca <= cb { (ca, cb) } else { (cb, ca) };
+        let (elo, ehi) = if r < lo { (r, lo) } else { (hi, r) };
+        let over = (ehi - elo) * rate;
+        if over.is_nan() || over < 0.25 || self.cov.covers(elo, ehi) {
+            return None;
+        }
+        let m = self.sample(a.t + x * dt)?;
+        self.span(a, &m, false);
+        Some(m)
+    }
+
     fn correct(&mut self, a: &Sample, b: &Sample) -> Option<Sample> {
         let c = self.ctx.opts.corrections;
         if !c.any_detection() {
