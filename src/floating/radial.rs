@@ -3021,7 +3021,9 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     let rate = max_num(st.rate, rb);
                     let from = if wall { None } else { self.correct(a, b) };
                     let from = match from {
-                        None if !wall && self.crests() => self.crest(a, b, rate, clamp),
+                        None if !wall && self.crests() && !super::column::rows_monotone(a, b) => {
+                            self.crest(a, b, rate, clamp)
+                        }
                         f => f,
                     };
                     match from {
