@@ -1189,8 +1189,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         };
                         self.span(from.as_ref().unwrap_or(a), b, wall, out);
                         last_w = b.wr;
-                        let k = ((b.drho_dt - a.drho_dt) / (b.t - a.t)).abs();
-                        bend = if k.is_finite() { k } else { 0.0 };
+                        bend = bend_over(a, b, 1.0);
                         // The candidate becomes the previous sample.
                         std::mem::swap(&mut pa, &mut pb);
                         tau = tau_n;
@@ -1384,15 +1383,11 @@ impl<'c, 'a> Sweep<'c, 'a> {
     /// its rows first.
     #[inline(never)]
     fn crest(&mut self, a: &Sample, b: &Sample, out: &mut [Pixel]) -> Option<Sample> {
-        let dt = b.t - a.t;
-        let (x, r) = hermite_overshoot(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt)?;
-        let (ra, rb) = (self.clamp_row(a.rho), self.clamp_row(b.rho));
-        let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
-        let r = self.clamp_row(r);
-        let (elo, ehi) = if r < lo { (r, lo) } else { (hi, r) };
+        let (x, elo, ehi) = crest_beyond(a, b, |r| self.clamp_row(r))?;
         if ehi - elo < 0.25 || self.cov.covers(elo, ehi) {
             return None;
         }
+        let dt = b.t - a.t;
         let m = self.sample(a.t + x * dt, Self::predict(a, x * dt))?;
         self.span(a, &m, false, out);
         Some(m)
@@ -1793,12 +1788,42 @@ pub(crate) fn hermite_monotone(p0: f64, p1: f64, m0: f64, m1: f64) -> bool {
     m0 * dr >= 0.0 && m1 * dr >= 0.0 && m0 * m0 + m1 * m1 <= 9.0 * dr * dr
 }
 
+/// |ρ''| over the step from sample a to b, in rows per t² times `scale`
+/// (local pixels per row; 0 where it is not finite), for [`bend_step`].
+#[inline(always)]
+pub(super) fn bend_over(a: &Sample, b: &Sample, scale: f64) -> f64 {
+    let k = ((b.drho_dt - a.drho_dt) / (b.t - a.t)).abs() * scale;
+    if k.is_finite() {
+        k
+    } else {
+        0.0
+    }
+}
+
 /// [`hermite_monotone`] for the rows of the cubic between samples a and b
 /// (no crest between them).
 #[inline(always)]
 pub(super) fn rows_monotone(a: &Sample, b: &Sample) -> bool {
     let dt = b.t - a.t;
     hermite_monotone(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt)
+}
+
+/// The crest of the cubic through samples a and b (rows and slopes) that
+/// reaches beyond both ends, rows mapped by `clamp`: (x, lo, hi), its
+/// place x in (0, 1) along the step and the rows [lo, hi] it reaches
+/// beyond the nearer end (shared by the orthographic and the perspective
+/// sweeps' `crest`).
+#[inline]
+pub(super) fn crest_beyond(
+    a: &Sample,
+    b: &Sample,
+    clamp: impl Fn(f64) -> f64,
+) -> Option<(f64, f64, f64)> {
+    let dt = b.t - a.t;
+    let (x, r) = hermite_overshoot(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt)?;
+    let (ra, rb, r) = (clamp(a.rho), clamp(b.rho), clamp(r));
+    let (lo, hi) = if ra <= rb { (ra, rb) } else { (rb, ra) };
+    Some(if r < lo { (x, r, lo) } else { (x, hi, r) })
 }
 
 /// The extremum in (0, 1) of the cubic Hermite through (0, p0), (1, p1)

@@ -46,10 +46,9 @@ pub struct FloatingOptions {
     /// (whose sub-pixel silhouettes come from the cubic between samples),
     /// else 5 where pixels are solved exactly (`refine`), each step there
     /// also held to a bend ([`FloatingOptions::sweep_step`]), and 3
-    /// without. With the
-    /// exact solve, the cubic through two samples 3 to 5 pixels apart,
-    /// with their exact slopes, seeds each pixel to about 1e-3 px, so that
-    /// one evaluation per pixel mostly settles it.
+    /// without. With the exact solve, the cubic through two samples 3 to
+    /// 5 pixels apart, with their exact slopes, seeds each pixel to about
+    /// 1e-3 px, so that one evaluation per pixel mostly settles it.
     pub step: Option<f64>,
     /// Largest step along a sweep, in lateral pixel footprints. None: 4, or
     /// 2 with `coverage`.

@@ -3030,9 +3030,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         Some(from) => self.span(&from, b, wall),
                         None => self.span(a, b, wall),
                     }
-                    // |ρ''| over the step, in local pixels.
-                    let k = ((b.drho_dt - a.drho_dt) / (b.t - a.t)).abs() * rate;
-                    st.bend = if k.is_finite() { k } else { 0.0 };
+                    // (in local pixels)
+                    st.bend = super::column::bend_over(a, b, rate);
                     // (b is the next step's previous sample)
                     st.rate = rb;
                 }
@@ -3264,9 +3263,6 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         }
     }
 
-    /// §5 corrections between samples a and b: the spans up to the last
-    /// inserted sample, which the span to b then starts from (None: no
-    /// problem detected, the span starts from a).
     /// The sample step in local pixels ([`FloatingOptions::sweep_step`]).
     #[inline]
     fn step(&self) -> f64 {
@@ -3282,10 +3278,11 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
 
     /// A crest between samples a and b (as the orthographic column's,
     /// `column::Sweep::crest`): where the cubic through their elevations
-    /// and slopes reaches beyond both by a quarter of a local pixel or more
-    /// (`rate` local pixels per unit of elevation; elevations by `clamp`
-    /// to near the bin's rays), into elevations not yet covered, one more sample at the cubic's extremum and the span from
-    /// a to it drawn; returns it (the span to b starts there).
+    /// and slopes reaches beyond both by a quarter of a local pixel or
+    /// more (`rate` local pixels per unit of elevation; elevations by
+    /// `clamp` to near the bin's rays), into elevations not yet covered,
+    /// one more sample at the cubic's extremum and the span from a to it
+    /// drawn; returns it (the span to b starts there).
     #[inline(never)]
     fn crest(
         &mut self,
@@ -3294,21 +3291,19 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         rate: f64,
         clamp: impl Fn(f64) -> f64,
     ) -> Option<Sample> {
-        let dt = b.t - a.t;
-        let (x, r) =
-            super::column::hermite_overshoot(a.rho, b.rho, a.drho_dt * dt, b.drho_dt * dt)?;
-        let (ca, cb, r) = (clamp(a.rho), clamp(b.rho), clamp(r));
-        let (lo, hi) = if ca <= cb { (ca, cb) } else { (cb, ca) };
-        let (elo, ehi) = if r < lo { (r, lo) } else { (hi, r) };
+        let (x, elo, ehi) = super::column::crest_beyond(a, b, clamp)?;
         let over = (ehi - elo) * rate;
         if over.is_nan() || over < 0.25 || self.cov.covers(elo, ehi) {
             return None;
         }
-        let m = self.sample(a.t + x * dt)?;
+        let m = self.sample(a.t + x * (b.t - a.t))?;
         self.span(a, &m, false);
         Some(m)
     }
 
+    /// §5 corrections between samples a and b: the spans up to the last
+    /// inserted sample, which the span to b then starts from (None: no
+    /// problem detected, the span starts from a).
     fn correct(&mut self, a: &Sample, b: &Sample) -> Option<Sample> {
         let c = self.ctx.opts.corrections;
         if !c.any_detection() {
