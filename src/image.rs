@@ -36,11 +36,31 @@ fn filled_rgb(n: usize, rgb: [u8; 3]) -> Vec<u8> {
     // Zeroed pages are mapped lazily: the colour fill is their first touch.
     let mut v = vec![0u8; 3 * n];
     crate::scratch::advise_huge(v.as_ptr(), 3 * n);
-    v.par_chunks_mut(3 << 12).for_each(|c| {
-        for px in c.chunks_exact_mut(3) {
-            px.copy_from_slice(&rgb);
-        }
-    });
+    v.par_chunks_mut(3 << 12).for_each(|c| fill_rgb(c, rgb));
+    v
+}
+
+/// Pixels of colour `rgb` over `dst` (3 bytes each): 16 pixels at a time,
+/// 48 bytes copied whole (a 3-byte copy per pixel costs several times as
+/// much).
+pub(crate) fn fill_rgb(dst: &mut [u8], rgb: [u8; 3]) {
+    let mut pat = [0u8; 48];
+    for px in pat.chunks_exact_mut(3) {
+        px.copy_from_slice(&rgb);
+    }
+    let mut it = dst.chunks_exact_mut(48);
+    for b in &mut it {
+        b.copy_from_slice(&pat);
+    }
+    let rest = it.into_remainder();
+    let m = rest.len();
+    rest.copy_from_slice(&pat[..m]);
+}
+
+/// Room for n values, none written yet (see [`Buffers::deferred`]).
+fn unfilled<T>(n: usize) -> Vec<T> {
+    let v = Vec::with_capacity(n);
+    crate::scratch::advise_huge(v.as_ptr(), n);
     v
 }
 
@@ -148,6 +168,50 @@ pub struct Buffers {
 }
 
 impl Buffers {
+    /// The requested buffers as [`Self::new`] has them, but for the
+    /// colour, intensity, depth, normal and (u, v) buffers, which are
+    /// allocated and not written (length 0): a renderer that writes every
+    /// pixel of them once (its surface's pixels, then the background's)
+    /// saves a pass over the image. Until [`Self::set_filled`], they are
+    /// written through pointers to their allocations only.
+    pub(crate) fn deferred(width: usize, height: usize, outputs: &Outputs) -> Buffers {
+        let n = width * height;
+        Buffers {
+            width,
+            height,
+            rgb: outputs.rgb.then(|| unfilled(3 * n)),
+            intensity: outputs.intensity.then(|| unfilled(n)),
+            depth: outputs.depth.then(|| unfilled(n)),
+            normal: outputs.normal.then(|| unfilled(3 * n)),
+            uv: outputs.uv.then(|| unfilled(2 * n)),
+            side: outputs.side.then(|| zeros(n)),
+            mask: outputs.mask.then(|| zeros(n)),
+            lines: outputs.lines.then(|| zeros(n)),
+            samples: 0,
+            stats: Vec::new(),
+        }
+    }
+
+    /// The buffers of [`Self::deferred`] at their full length.
+    ///
+    /// # Safety
+    /// Every value of them has been written.
+    pub(crate) unsafe fn set_filled(&mut self) {
+        let n = self.width * self.height;
+        fn full<T>(v: &mut Option<Vec<T>>, len: usize) {
+            if let Some(v) = v {
+                assert!(v.capacity() >= len, "a buffer of the image's size");
+                // SAFETY: the caller's guarantee; the capacity holds len.
+                unsafe { v.set_len(len) };
+            }
+        }
+        full(&mut self.rgb, 3 * n);
+        full(&mut self.intensity, n);
+        full(&mut self.depth, n);
+        full(&mut self.normal, 3 * n);
+        full(&mut self.uv, 2 * n);
+    }
+
     /// Allocate the requested buffers filled with their background values.
     pub fn new(width: usize, height: usize, outputs: &Outputs, background: [u8; 3]) -> Buffers {
         let n = width * height;

@@ -253,8 +253,17 @@ pub fn render_floating_column(
         // (see the orthographic pass below)
         searched: !cam.perspective,
     };
-    let mut buf = Buffers::new(width, height, outputs, shading.background);
     let cov = opts.coverage;
+    // The plain renders (no supersampled shading, no coverage) write each
+    // pixel once: the surface's as they are solved, the background's in
+    // the pass over the image that looks for the searches on the mask's
+    // edge (radial::edge_searches), not in a fill before.
+    let deferred = !shade_aa && !cov;
+    let mut buf = if deferred {
+        Buffers::deferred(width, height, outputs)
+    } else {
+        Buffers::new(width, height, outputs, shading.background)
+    };
     let geom = outputs.depth || outputs.normal || outputs.uv || outputs.side || outputs.mask;
     let mut total = ColumnStats::default();
     if cam.perspective && shade_aa {
@@ -364,6 +373,8 @@ pub fn render_floating_column(
                 // samples, and a crest in front that the plane's samples
                 // step over: the pixels beside set ones searched on their
                 // own rays (as in perspective, see radial::edge_searches).
+                // (and the background, see `deferred`)
+                let fill = deferred.then(|| SharedOut::new(&mut buf, shading));
                 let moved = radial::edge_searches(
                     &ctx,
                     (0.0, 0.0),
@@ -371,6 +382,7 @@ pub fn render_floating_column(
                     &mut zs,
                     &mut found,
                     &mut total,
+                    fill.as_ref(),
                 );
                 found.extend(moved);
             }
@@ -416,6 +428,12 @@ pub fn render_floating_column(
                 }
             }
         }
+    }
+    if deferred {
+        // SAFETY: every pixel was written: those set by their solves (or
+        // the searches after them), the others by the searches' pass (see
+        // `deferred` above).
+        unsafe { buf.set_filled() };
     }
     buf.samples = total.sweep_evals + total.refine_evals;
     buf.stat("sweep_samples", total.sweep_evals as f64);
@@ -754,6 +772,49 @@ impl<'a> SharedOut<'a> {
             self.cover = cover.as_mut_ptr();
         }
         self
+    }
+
+    /// Write the background into the pixels of a row (from pixel `k0`)
+    /// whose flag in `set` is false, in runs (the colour and NaN buffers;
+    /// side and mask are allocated zeroed): the rest of a render into
+    /// [`Buffers::deferred`] whose surface pixels are `set`.
+    ///
+    /// # Safety
+    /// The row lies in the image; no other thread reads or writes its
+    /// pixels meanwhile.
+    pub(crate) unsafe fn fill_unset(&self, k0: usize, set: &[bool]) {
+        assert!(k0 + set.len() <= self.n, "pixels out of range");
+        /// Values [a, b) of `ptr` (if not null) set to x.
+        ///
+        /// # Safety
+        /// `ptr` (if not null) holds b values, used by this thread only.
+        unsafe fn fill<T: Copy>(ptr: *mut T, a: usize, b: usize, x: T) {
+            if !ptr.is_null() {
+                // SAFETY: see above.
+                unsafe { std::slice::from_raw_parts_mut(ptr.add(a), b - a).fill(x) };
+            }
+        }
+        let mut j = 0;
+        while j < set.len() {
+            if set[j] {
+                j += 1;
+                continue;
+            }
+            let run = set[j..].iter().position(|&x| x).unwrap_or(set.len() - j);
+            let (a, b) = (k0 + j, k0 + j + run);
+            // SAFETY: b ≤ n, and the caller's guarantee.
+            unsafe {
+                if !self.rgb.is_null() {
+                    let rgb = std::slice::from_raw_parts_mut(self.rgb.add(3 * a), 3 * (b - a));
+                    crate::image::fill_rgb(rgb, self.shading.background);
+                }
+                fill(self.intensity, a, b, f32::NAN);
+                fill(self.depth, a, b, f32::NAN);
+                fill(self.normal, 3 * a, 3 * b, f32::NAN);
+                fill(self.uv, 2 * a, 2 * b, f32::NAN);
+            }
+            j += run;
+        }
     }
 
     /// Write a set pixel k without supersampling: what [`write_pixel`]

@@ -227,7 +227,11 @@ fn render_radial_with(
         ctx, off, &missed, &mut set, &mut depth, &mut holes, &mut stats,
     );
     fill_holes(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
-    let moved = edge_searches(ctx, off, &mut set, &mut depth, &mut holes, &mut stats);
+    // (with `direct`, the search's scan of the image also writes the
+    // background of the pixels left unset, see [`Buffers::deferred`])
+    let moved = edge_searches(
+        ctx, off, &mut set, &mut depth, &mut holes, &mut stats, direct,
+    );
     if !moved.is_empty() && direct.is_none() {
         // (each pixel listed once: its first entry gives way)
         let mut gone = ScratchArray::<bool>::zeroed(n);
@@ -1059,7 +1063,9 @@ const GROW_ROUNDS: usize = 2;
 /// neighbour's whose sheet it is lies a pixel away ([`solve_from_seeds`]).
 /// The first round's two kinds are found in one pass over the image and
 /// solved together. Returns the moved pixels (their depths updated); the
-/// pixels set are added to `px`.
+/// pixels set are added to `px`. With `fill`, that pass also writes the
+/// background of the pixels not set there ([`SharedOut::fill_unset`]; the
+/// pixels the searches set are written over it afterwards).
 pub(super) fn edge_searches(
     ctx: &Ctx<'_>,
     off: (f64, f64),
@@ -1067,6 +1073,7 @@ pub(super) fn edge_searches(
     depth: &mut [f64],
     px: &mut Vec<(usize, Pixel)>,
     stats: &mut ColumnStats,
+    fill: Option<&SharedOut<'_>>,
 ) -> Vec<(usize, Pixel)> {
     let cam = ctx.cam;
     let (w, h) = (cam.width, cam.height);
@@ -1140,6 +1147,11 @@ pub(super) fn edge_searches(
                     let mut flags = Vec::new();
                     for i in b * BAND..((b + 1) * BAND).min(h) {
                         scan_row(set, depth, i, w, h, fpt, &mut flags, &mut ks);
+                        if let Some(out) = fill {
+                            // SAFETY: the bands are disjoint rows, and
+                            // nothing else writes the buffers meanwhile.
+                            unsafe { out.fill_unset(i * w, &set[i * w..(i + 1) * w]) };
+                        }
                     }
                     ks.into_iter()
                         .filter_map(|k| search(set, depth, k))

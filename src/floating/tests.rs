@@ -1060,3 +1060,83 @@ fn walls_at_extreme_zoom_are_walls_not_endless_retries() {
         "pole: {samples} sweep samples"
     );
 }
+
+/// The plain renders write their colour and NaN buffers once, without a
+/// fill before ([`Buffers::deferred`]): every pixel off the mask holds the
+/// background, every pixel on it a hit, in both projections, for views
+/// that fill the picture in part, with and without the exact solve. (The
+/// heap is first strewn with a pattern that is none of these values, so
+/// that a pixel left unwritten shows.)
+#[test]
+fn plain_renders_write_every_pixel() {
+    let outs = Outputs::from_names(&["rgb", "intensity", "depth", "normal", "uv", "side", "mask"])
+        .unwrap();
+    let sh = Shading::default();
+    let (w, h) = (97, 61);
+    let views = [
+        ortho(30.0, 30.0, 13.0),
+        ortho(20.0, 75.0, 30.0),
+        persp(30.0, 40.0, 24.0),
+        persp(15.0, 200.0, 40.0),
+    ];
+    for view in &views {
+        for refine in [true, false] {
+            for field in [&sinuv() as &dyn HeightField, &bump()] {
+                for len in [3 * w * h, w * h, 2 * w * h] {
+                    drop(std::hint::black_box(vec![0x55u8; 4 * len]));
+                }
+                let o = FloatingOptions {
+                    refine,
+                    ..Default::default()
+                };
+                let b = render_floating_column(field, view, w, h, &outs, &sh, &o, &Cancel::new())
+                    .unwrap();
+                let (rgb, inten, depth) = (b.rgb.unwrap(), b.intensity.unwrap(), b.depth.unwrap());
+                let (normal, uv, side, mask) = (
+                    b.normal.unwrap(),
+                    b.uv.unwrap(),
+                    b.side.unwrap(),
+                    b.mask.unwrap(),
+                );
+                assert_eq!(
+                    (rgb.len(), normal.len(), uv.len()),
+                    (3 * w * h, 3 * w * h, 2 * w * h)
+                );
+                assert!(
+                    mask.iter().any(|&m| m) && mask.iter().any(|&m| !m),
+                    "{view:?}"
+                );
+                for k in 0..w * h {
+                    let nrm = &normal[3 * k..3 * k + 3];
+                    let cuv = &uv[2 * k..2 * k + 2];
+                    if mask[k] {
+                        assert!(
+                            depth[k].is_finite() && inten[k].is_finite(),
+                            "pixel {k} of {view:?}"
+                        );
+                        assert!(
+                            nrm.iter().chain(cuv).all(|x| x.is_finite()),
+                            "pixel {k} of {view:?}"
+                        );
+                        assert!(side[k] != 0, "pixel {k} of {view:?}");
+                    } else {
+                        assert_eq!(
+                            rgb[3 * k..3 * k + 3],
+                            sh.background,
+                            "pixel {k} of {view:?}"
+                        );
+                        assert!(
+                            depth[k].is_nan() && inten[k].is_nan(),
+                            "pixel {k} of {view:?}"
+                        );
+                        assert!(
+                            nrm.iter().chain(cuv).all(|x| x.is_nan()),
+                            "pixel {k} of {view:?}"
+                        );
+                        assert_eq!(side[k], 0, "pixel {k} of {view:?}");
+                    }
+                }
+            }
+        }
+    }
+}
