@@ -52,3 +52,15 @@ def test_native_docstring_examples():
                 n += len(test.examples)
     assert n > 0
     assert runner.summarize(verbose=False).failed == 0
+
+
+def test_build_description():
+    # What the bench prints beside its timings: the build's profile and the
+    # instruction sets it was compiled for (a build for this machine's
+    # processor names those of the machine).
+    assert fcol.build_profile in ("debug", "release")
+    assert isinstance(fcol.build_features, str)
+    known = {"sse4.2", "avx2", "fma", "avx512f", "neon"}
+    assert set(fcol.build_features.split()) <= known
+    if "avx512f" in fcol.build_features.split():
+        assert "avx2" in fcol.build_features.split()

@@ -10,7 +10,16 @@ between. Every render reports its time and sample count; the benchmarks
 from __future__ import annotations
 
 from . import horizon, raster
-from ._fcol import ExpressionError, Function, HeightGrid, Parametric, View, __version__, build_profile
+from ._fcol import (
+    ExpressionError,
+    Function,
+    HeightGrid,
+    Parametric,
+    View,
+    __version__,
+    build_features,
+    build_profile,
+)
 from .horizon import HorizonMap, horizon_map, horizon_points, shade_terrain
 from .image import Image
 from .render import render
@@ -24,6 +33,7 @@ __all__ = [
     "Parametric",
     "View",
     "__version__",
+    "build_features",
     "build_profile",
     "horizon",
     "horizon_map",

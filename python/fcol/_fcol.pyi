@@ -8,6 +8,10 @@ import numpy.typing as npt
 
 __version__: str
 build_profile: Literal["debug", "release"]
+#: Instruction sets the extension was compiled for beyond its target's
+#: baseline, space-separated (e.g. "sse4.2 avx2 fma avx512f"; "" for a
+#: portable build).
+build_features: str
 
 class ExpressionError(ValueError): ...
 

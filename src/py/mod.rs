@@ -25,6 +25,20 @@ fn _fcol(m: &Bound<'_, PyModule>) -> PyResult<()> {
             "release"
         },
     )?;
+    // The instruction sets the extension was compiled for beyond its
+    // target's baseline (a build for this machine's processor, see the
+    // Makefile, has those it has).
+    let features: Vec<&str> = [
+        ("sse4.2", cfg!(target_feature = "sse4.2")),
+        ("avx2", cfg!(target_feature = "avx2")),
+        ("fma", cfg!(target_feature = "fma")),
+        ("avx512f", cfg!(target_feature = "avx512f")),
+        ("neon", cfg!(target_feature = "neon")),
+    ]
+    .into_iter()
+    .filter_map(|(name, on)| on.then_some(name))
+    .collect();
+    m.add("build_features", features.join(" "))?;
     errors::register(m)?;
     view::register(m)?;
     raster::register(m)?;

@@ -20,6 +20,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if fcol.build_profile != "release":
         print("warning: fcol is a debug build; timings are meaningless (make build)", file=sys.stderr)
+    print(f"fcol {fcol.__version__}, {fcol.build_profile} build for {fcol.build_features or 'the baseline'}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     names = sorted(m.name for m in pkgutil.iter_modules(fcol.bench.__path__) if not m.name.startswith("_"))
