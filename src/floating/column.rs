@@ -1139,7 +1139,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 if positive_finite(r) {
                     let mut hm = step_px / r;
                     if exact && bend > 0.0 {
-                        hm = min_num(hm, bend_step(bend));
+                        hm = min_num(hm, bend_step(bend, BEND));
                     }
                     (min_num(AIM * hm, cap), min_num(hm, cap))
                 } else {
@@ -1766,16 +1766,27 @@ pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f6
 /// solved orthographic column, in rows (see [`bend_step`]).
 pub(super) const BEND: f64 = 0.05;
 
+/// The same for a perspective sweep, in local pixels: there the pixels
+/// beside the mask's edge and beside depth steps are searched on their own
+/// rays after the sweeps, and a looser bend shows in none of the edge
+/// views' counts, nor in the depths and normals against the exact hit
+/// (bench view, 480 × 477: 14 % fewer sweep samples than at 0.05, 1 %
+/// more evaluations in the solves); the orthographic columns' edge views
+/// lose pixels to it (a DEM seen low: 2 farther than the first hit at
+/// 160 × 120 become 10 at 0.1).
+pub(super) const BEND_RADIAL: f64 = 0.2;
+
 /// The longest step (in t) over which a row curve bending at |ρ''| =
-/// `rho2` (rows per t²) stays within [`BEND`] rows of its chord: the
-/// deviation of a parabola from its chord over a step h is |ρ''| h² / 8.
-/// With it the row gap between samples can be 5 pixels where the curve is
-/// nearly straight (the cubic between them still seeds each pixel's solve
-/// to well under the solve's tolerance) while fine ripples and folds keep
-/// short steps, so that features between samples are not stepped over.
+/// `rho2` (rows per t²) stays within `bend` rows of its chord ([`BEND`],
+/// [`BEND_RADIAL`]): the deviation of a parabola from its chord over a
+/// step h is |ρ''| h² / 8. With it the row gap between samples can be 5
+/// pixels where the curve is nearly straight (the cubic between them still
+/// seeds each pixel's solve to well under the solve's tolerance) while fine
+/// ripples and folds keep short steps, so that features between samples are
+/// not stepped over.
 #[inline]
-pub(super) fn bend_step(rho2: f64) -> f64 {
-    (8.0 * BEND / rho2).sqrt()
+pub(super) fn bend_step(rho2: f64, bend: f64) -> f64 {
+    (8.0 * bend / rho2).sqrt()
 }
 
 /// The cubic Hermite through (0, p0), (1, p1) with slopes m0, m1 stays

@@ -2813,7 +2813,10 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                 } else if !deep && positive_finite(r) {
                     let mut hm = step / r;
                     if ctx.refine && st.bend > 0.0 {
-                        hm = min_num(hm, super::column::bend_step(st.bend));
+                        hm = min_num(
+                            hm,
+                            super::column::bend_step(st.bend, super::column::BEND_RADIAL),
+                        );
                     }
                     (min_num(hm, cap), min_num(super::column::AIM * hm, cap))
                 } else {
