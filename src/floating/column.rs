@@ -1066,7 +1066,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         // steps by default, each held to a bend and crests sampled (see
         // `bend_step` and `crest`).
         let exact = self.ctx.refine && !fr.persp;
-        let step_px = opts.sweep_step(exact);
+        let step_px = opts.sweep_step(exact, false);
         let tt = |tau: f64| t_start + sign * tau;
         let w0 = self.ctx.cam.view.target.z - fr.origin.z;
         let mut tau = 0.0;

@@ -44,9 +44,9 @@ pub struct FloatingOptions {
     /// Largest row gap between consecutive samples, in pixels (the sample
     /// step adapts to the projected step). None: 1 with `coverage`
     /// (whose sub-pixel silhouettes come from the cubic between samples),
-    /// else 5 where pixels are solved exactly (`refine`), each step there
-    /// also held to a bend ([`FloatingOptions::sweep_step`]), and 3
-    /// without. With the exact solve, the cubic through two samples 3 to
+    /// else 5 where pixels are solved exactly (`refine`; 8 local pixels
+    /// in a perspective bin), each step there also held to a bend
+    /// ([`FloatingOptions::sweep_step`]), and 3 without. With the exact solve, the cubic through two samples 3 to
     /// 5 pixels apart, with their exact slopes, seeds each pixel to about
     /// 1e-3 px, so that one evaluation per pixel mostly settles it.
     pub step: Option<f64>,
@@ -118,13 +118,19 @@ impl FloatingOptions {
     }
 
     /// The sample step in rows of a column's sweep (orthographic) or a
-    /// bin's (perspective, in local pixels), `exact` whether its pixels
-    /// are solved on their rays: 5 by default there (each step also held
-    /// to a bend, and crests between samples sampled: see
-    /// `column::bend_step`), else [`FloatingOptions::step`].
+    /// bin's (`radial`: perspective, in local pixels), `exact` whether its
+    /// pixels are solved on their rays: by default 5 there, 8 in a bin
+    /// (each step also held to a bend, and crests between samples sampled:
+    /// see `column::bend_step`), else [`FloatingOptions::step`]. A bin's
+    /// edge pixels and depth steps are searched on their own rays after
+    /// the sweeps: its longer steps show neither in the edge views' counts
+    /// nor against the exact hit (bench view, 480 × 477: 17 % fewer sweep
+    /// samples than at 5, normal median 1.52e-5° → 1.58e-5°, depths the
+    /// same); an orthographic column's edge views lose pixels to them.
     #[inline]
-    pub fn sweep_step(&self, exact: bool) -> f64 {
+    pub fn sweep_step(&self, exact: bool, radial: bool) -> f64 {
         match self.step {
+            None if exact && !self.coverage && radial => 8.0,
             None if exact && !self.coverage => 5.0,
             _ => self.step(),
         }

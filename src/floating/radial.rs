@@ -3281,7 +3281,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
     /// The sample step in local pixels ([`FloatingOptions::sweep_step`]).
     #[inline]
     fn step(&self) -> f64 {
-        self.ctx.opts.sweep_step(self.ctx.refine)
+        self.ctx.opts.sweep_step(self.ctx.refine, true)
     }
 
     /// Crests between samples get a sample at their top (exactly solved

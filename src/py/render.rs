@@ -126,12 +126,12 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   left for that search rather than interpolated (not with `antialias`
 ///   shading, whose sub-columns shade the silhouettes);
 /// * `step` (1.0 with `coverage`; else 5.0 where pixels are solved
-///   exactly, `refine=True`, each step there also held within 0.05 pixel
-///   of its chord, 0.2 in perspective; 3.0 without): largest screen gap
-///   between samples,
-///   pixels; `max_step` (4.0; 2.0 with `coverage`): largest step along a
-///   sweep, in pixel footprints (step=1, max_step=2: the dense
-///   sweep, 1.5–2× the samples);
+///   exactly, `refine=True`, 8.0 in perspective, each step there also
+///   held within 0.05 pixel of its chord, 0.2 in perspective; 3.0
+///   without): largest screen gap between samples, pixels; `max_step`
+///   (4.0; 2.0 with `coverage`): largest step along a sweep, in pixel
+///   footprints (step=1, max_step=2: the dense sweep, 1.5–2× the
+///   samples);
 /// * `ridges`, `bumps`, `jumps` (False): §5 detections; `correction`
 ///   ("supersample" or "spline"), `rate` (8), `threshold` (0.0625);
 ///   `walls` (True): shade steps as walls (§5.1);
