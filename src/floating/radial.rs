@@ -2314,7 +2314,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
             ppr: 1.5 * ctx.cam.focal,
             rate: PxRate::default(),
             srange: (-1.0, 1.0),
-            ahead: Ahead::default(),
+            ahead: Ahead::with_max(super::sampling::AHEAD_MAX_RADIAL),
             cursor: 0,
             off: (0.0, 0.0),
             fine: None,

@@ -507,12 +507,22 @@ pub struct Ahead {
     smps: Vec<Option<Raw>>,
     pos: usize,
     k: usize,
+    /// Most samples evaluated ahead in one batch.
+    max: usize,
     /// Sweep parameter → sampling parameter of each new batch.
     pub ts: Vec<f64>,
 }
 
-/// Most samples evaluated ahead in one batch.
+/// Most samples evaluated ahead in one batch, by default.
 pub const AHEAD_MAX: usize = 8;
+
+/// The same for a perspective bin's sweep ([`Ahead::with_max`]): its
+/// samples up to 8 local pixels apart, fewer of a batch of 8 are taken
+/// (bench view, 480 × 477: 12 % fewer samples evaluated at 4, the same
+/// pixels against the exact hit and on the edge views; an orthographic
+/// column's edge views lose pixels to shorter batches, whose samples lie
+/// elsewhere).
+pub const AHEAD_MAX_RADIAL: usize = 4;
 
 impl Default for Ahead {
     fn default() -> Self {
@@ -521,18 +531,27 @@ impl Default for Ahead {
             smps: Vec::new(),
             pos: 0,
             k: 4,
+            max: AHEAD_MAX,
             ts: Vec::new(),
         }
     }
 }
 
 impl Ahead {
+    /// A look-ahead of batches up to `max` samples.
+    pub fn with_max(max: usize) -> Self {
+        Ahead {
+            max: max.max(1),
+            ..Ahead::default()
+        }
+    }
+
     /// Back to the state of a new sweep (keeping the buffers).
     pub fn reset(&mut self) {
         self.taus.clear();
         self.smps.clear();
         self.pos = 0;
-        self.k = Ahead::default().k;
+        self.k = Ahead::default().k.min(self.max);
     }
 
     /// The farthest buffered sample with sweep parameter in (lo, hi].
@@ -557,7 +576,7 @@ impl Ahead {
         if self.pos < self.taus.len() {
             self.k = (self.k / 2).max(1);
         } else if !self.taus.is_empty() {
-            self.k = (2 * self.k).min(AHEAD_MAX);
+            self.k = (2 * self.k).min(self.max);
         }
         self.taus.clear();
         self.pos = 0;
