@@ -1788,21 +1788,6 @@ pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f6
 /// solved orthographic column, in rows (see [`bend_step`]).
 pub(super) const BEND: f64 = 0.05;
 
-/// Longest step of an orthographic column's sample deep inside the covered
-/// rows, in its largest steps (`max_step` footprints), where its pixels
-/// are solved exactly at the default step (the long-step regime of
-/// [`super::FloatingOptions::sweep_step`]) and without coverage (whose
-/// sub-pixel silhouettes come from the spans themselves; a plain render
-/// with coverage's steps has its geometry): a sample 2k·`step` rows
-/// inside steps k of them, up to this (the curve must climb that far to
-/// show). On the bench view, 480 × 477: 8 % fewer sweep samples than
-/// one largest step everywhere there, no change against the exact hit, and
-/// on the edge views 5 fewer pixels on a farther sheet. (Twice as far
-/// takes more samples, not fewer: the steps that rise out of the coverage
-/// are retried shorter. Perspective bins, whose rays are searched after
-/// the sweeps, lose pixels on their edge views to it.)
-pub(super) const DEEP_MAX: f64 = 2.0;
-
 /// The same for a perspective sweep, in local pixels: there the pixels
 /// beside the mask's edge and beside depth steps are searched on their own
 /// rays after the sweeps, and a looser bend shows in none of the edge
@@ -1812,6 +1797,21 @@ pub(super) const DEEP_MAX: f64 = 2.0;
 /// lose pixels to it (a DEM seen low: 2 farther than the first hit at
 /// 160 × 120 become 10 at 0.1).
 pub(super) const BEND_RADIAL: f64 = 0.2;
+
+/// Longest step of an orthographic column's sample deep inside the covered
+/// rows, in its largest steps (`max_step` footprints), where its pixels
+/// are solved exactly at the default step (the long-step regime of
+/// [`super::FloatingOptions::sweep_step`]) and without coverage (whose
+/// sub-pixel silhouettes come from the spans themselves; a plain render
+/// with coverage's steps has its geometry): a sample 2k·`step` rows
+/// inside steps k of them, up to this (the curve must climb that far to
+/// show). On the bench view, 480 × 477: 8 % fewer sweep samples than
+/// one largest step everywhere there, no change against the exact hit, and
+/// on the edge views 5 fewer pixels on a farther sheet. (A limit of 4
+/// takes more samples, not fewer: the steps that rise out of the coverage
+/// are retried shorter. Perspective bins, whose rays are searched after
+/// the sweeps, lose pixels on their edge views to it.)
+pub(super) const DEEP_MAX: f64 = 2.0;
 
 /// The longest step (in t) over which a row curve bending at |ρ''| =
 /// `rho2` (rows per t²) stays within `bend` rows of its chord ([`BEND`],
