@@ -1091,6 +1091,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
         // |ρ''| over the last step taken (0: unknown), for `bend_step`.
         let mut bend = 0.0f64;
         let crests = exact && !self.detect;
+        // (a sample deep in the covered rows may step farther, see `deep`)
+        let long = opts.long_steps(exact);
         let mut no_skip_until = f64::NEG_INFINITY;
         while tau < len && steps < MAX_STEPS {
             steps += 1;
@@ -1130,11 +1132,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 // grows without bound, steps by it would approach the pole
                 // without end.
                 (cap, cap)
-            } else if let Some(k) = self.deep(
-                pa,
-                step_px,
-                exact && opts.step.is_none() && self.fine.is_none(),
-            ) {
+            } else if let Some(k) = self.deep(pa, step_px, long) {
                 // Deep inside the covered rows nothing can show before the
                 // curve climbs out: the largest step, or up to twice it
                 // deeper still (checked below).
@@ -1258,8 +1256,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
 
     /// How far sample `a` lies inside the covered rows, as a multiple of
     /// the largest step it may take: None within 2·`step_px` rows of the
-    /// coverage's edge, else 1, or with `longer` (an exactly solved column
-    /// at the default step, without coverage, see [`DEEP_MAX`]) the depth
+    /// coverage's edge, else 1, or with `longer` (the long default steps,
+    /// [`super::FloatingOptions::long_steps`], see [`DEEP_MAX`]) the depth
     /// over that, up to [`DEEP_MAX`].
     #[inline]
     fn deep(&self, a: &Sample, step_px: f64, longer: bool) -> Option<f64> {

@@ -46,9 +46,10 @@ pub struct FloatingOptions {
     /// (whose sub-pixel silhouettes come from the cubic between samples),
     /// else 5 where pixels are solved exactly (`refine`; 8 local pixels
     /// in a perspective bin), each step there also held to a bend
-    /// ([`FloatingOptions::sweep_step`]), and 3 without. With the exact solve, the cubic through two samples 3 to
-    /// 5 pixels apart, with their exact slopes, seeds each pixel to about
-    /// 1e-3 px, so that one evaluation per pixel mostly settles it.
+    /// ([`FloatingOptions::sweep_step`]), and 3 without. With the exact
+    /// solve, the cubic through two samples 3 to 5 pixels apart, with
+    /// their exact slopes, seeds each pixel to about 1e-3 px, so that one
+    /// evaluation per pixel mostly settles it.
     pub step: Option<f64>,
     /// Largest step along a sweep, in lateral pixel footprints. None: 4, or
     /// 2 with `coverage`.
@@ -129,11 +130,20 @@ impl FloatingOptions {
     /// same); an orthographic column's edge views lose pixels to them.
     #[inline]
     pub fn sweep_step(&self, exact: bool, radial: bool) -> f64 {
-        match self.step {
-            None if exact && !self.coverage && radial => 8.0,
-            None if exact && !self.coverage => 5.0,
-            _ => self.step(),
+        match self.long_steps(exact) {
+            true if radial => 8.0,
+            true => 5.0,
+            false => self.step(),
         }
+    }
+
+    /// Whether a sweep whose pixels are solved on their rays (`exact`)
+    /// takes the long default steps of [`Self::sweep_step`] (no `step`
+    /// given, no coverage), held to a bend and, orthographic, longer still
+    /// deep in the covered rows (`column::DEEP_MAX`).
+    #[inline]
+    pub fn long_steps(&self, exact: bool) -> bool {
+        exact && self.step.is_none() && !self.coverage
     }
 
     /// The largest step in footprints (see [`FloatingOptions::max_step`]).

@@ -1107,34 +1107,25 @@ fn plain_renders_write_every_pixel() {
                     "{view:?}"
                 );
                 for k in 0..w * h {
-                    let nrm = &normal[3 * k..3 * k + 3];
-                    let cuv = &uv[2 * k..2 * k + 2];
-                    if mask[k] {
-                        assert!(
-                            depth[k].is_finite() && inten[k].is_finite(),
-                            "pixel {k} of {view:?}"
-                        );
-                        assert!(
-                            nrm.iter().chain(cuv).all(|x| x.is_finite()),
-                            "pixel {k} of {view:?}"
-                        );
-                        assert!(side[k] != 0, "pixel {k} of {view:?}");
+                    let (c, nrm) = (&rgb[3 * k..3 * k + 3], &normal[3 * k..3 * k + 3]);
+                    let floats = || {
+                        [depth[k], inten[k]]
+                            .into_iter()
+                            .chain(nrm.iter().copied())
+                            .chain(uv[2 * k..2 * k + 2].iter().copied())
+                    };
+                    // On the mask a hit (every value finite, a side), off
+                    // it the background (its colour, NaN, no side).
+                    let good = if mask[k] {
+                        floats().all(f32::is_finite) && side[k] != 0
                     } else {
-                        assert_eq!(
-                            rgb[3 * k..3 * k + 3],
-                            sh.background,
-                            "pixel {k} of {view:?}"
-                        );
-                        assert!(
-                            depth[k].is_nan() && inten[k].is_nan(),
-                            "pixel {k} of {view:?}"
-                        );
-                        assert!(
-                            nrm.iter().chain(cuv).all(|x| x.is_nan()),
-                            "pixel {k} of {view:?}"
-                        );
-                        assert_eq!(side[k], 0, "pixel {k} of {view:?}");
-                    }
+                        c == sh.background && floats().all(f32::is_nan) && side[k] == 0
+                    };
+                    assert!(
+                        good,
+                        "pixel {k} of {view:?}: mask {}, rgb {c:?}, depth {}, intensity {}, normal {nrm:?}, side {}",
+                        mask[k], depth[k], inten[k], side[k]
+                    );
                 }
             }
         }
