@@ -9,8 +9,8 @@
 //! `always` mode) a fault maps 2 MiB at once. A dropped mapping is kept for
 //! the next render (up to [`KEEP`] bytes in all, the largest kept), so that
 //! renders in a row neither fault nor have the kernel zero their scratch
-//! again: [`ScratchArray::any`] hands a kept mapping over as it is (for arrays
-//! written before they are read), [`ScratchArray::zeroed`] clears it. Elsewhere,
+//! again: [`ScratchArray::zeroed`] clears a kept mapping, and
+//! [`ScratchArray::filled`] writes its value over it (in parallel). Elsewhere,
 //! or should the mapping fail, a `Vec`. [`populate_write`] faults in a
 //! fresh output array's pages in one call before it is written whole.
 
@@ -106,10 +106,13 @@ impl<T: Zeroable> ScratchArray<T> {
 }
 
 impl<T: AnyBits> ScratchArray<T> {
-    /// n values, unspecified (those of an earlier array, or zeros): for
-    /// arrays written before they are read.
-    pub fn any(len: usize) -> Self {
-        Self::make(len, false)
+    /// n copies of x, written in parallel (rayon's current pool).
+    pub fn filled(len: usize, x: T) -> Self {
+        use rayon::prelude::*;
+        // (a kept mapping's old values: every bit pattern is a T)
+        let mut a = Self::make(len, false);
+        a.par_chunks_mut(1 << 14).for_each(|c| c.fill(x));
+        a
     }
 }
 
@@ -310,10 +313,14 @@ mod tests {
                 assert!(z.iter().enumerate().all(|(k, &x)| x == k as f64 + 0.5));
                 let b = ScratchArray::<bool>::zeroed(n);
                 assert!(b.iter().all(|&x| !x));
-                let mut a = ScratchArray::<u32>::any(n);
+                let mut a = ScratchArray::<u32>::filled(n, 7);
                 assert_eq!(a.len(), n);
-                a.iter_mut().for_each(|x| *x = 7);
                 assert!(a.iter().all(|&x| x == 7));
+                a.iter_mut().for_each(|x| *x = 9);
+                drop(a);
+                // (over a kept mapping whose values were written above)
+                let f = ScratchArray::<f64>::filled(n, f64::INFINITY);
+                assert!(f.len() == n && f.iter().all(|&x| x == f64::INFINITY));
             }
         }
         let pool = POOL.lock().unwrap_or_else(|e| e.into_inner());

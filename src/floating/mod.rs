@@ -355,7 +355,6 @@ pub fn render_floating_column(
         // the colours come from the sub-columns after it.
         let n = width * height;
         let mut set = crate::scratch::ScratchArray::<bool>::zeroed(n);
-        let mut zs = crate::scratch::ScratchArray::<f64>::any(n);
         let mut covered = vec![0.0f32; if cov { n } else { 0 }];
         let geometry_pass = !shade_aa || geom;
         // (one pool for the columns, the searches and the sub-columns)
@@ -364,6 +363,8 @@ pub fn render_floating_column(
             let mut total = ColumnStats::default();
             let mut found = Vec::new();
             if geometry_pass {
+                // (+∞ where unset: see radial::edge_searches)
+                let mut zs = crate::scratch::ScratchArray::<f64>::filled(n, f64::INFINITY);
                 let out = SharedOut::new(&mut buf, shading);
                 let out = if shade_aa { out.geometry_only() } else { out };
                 let out = out.with_marks(&mut set, &mut zs, &mut covered);
@@ -812,11 +813,11 @@ impl<'a> SharedOut<'a> {
         }
         let mut j = 0;
         while j < set.len() {
-            if set[j] {
-                j += 1;
-                continue;
+            j = run_end(set, j, true);
+            if j == set.len() {
+                break;
             }
-            let run = set[j..].iter().position(|&x| x).unwrap_or(set.len() - j);
+            let run = run_end(set, j, false) - j;
             let (a, b) = (k0 + j, k0 + j + run);
             // SAFETY: b ≤ n, and the caller's guarantee.
             unsafe {
@@ -939,6 +940,24 @@ impl<'a> SharedOut<'a> {
             }
         }
     }
+}
+
+/// The end of the run of flags equal to `x` from index j (the first index
+/// from j whose flag differs, or the length), eight flags at a time.
+#[inline]
+fn run_end(flags: &[bool], mut j: usize, x: bool) -> usize {
+    let all = if x { 0x0101_0101_0101_0101u64 } else { 0 };
+    while j + 8 <= flags.len() {
+        let b: &[bool; 8] = flags[j..j + 8].try_into().expect("eight flags");
+        if u64::from_le_bytes(b.map(u8::from)) != all {
+            break;
+        }
+        j += 8;
+    }
+    while j < flags.len() && flags[j] == x {
+        j += 1;
+    }
+    j
 }
 
 /// Rows of every buffer of a render (row-major slices).

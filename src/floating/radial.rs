@@ -105,7 +105,8 @@ fn render_radial_with(
     // their pixels directly, else gathered from their lists. A depth is
     // read only where its pixel is set, which writes it.
     let mut set = ScratchArray::<bool>::zeroed(n);
-    let mut depth = ScratchArray::<f64>::any(n);
+    // (+∞ where unset: see [`edge_searches`])
+    let mut depth = ScratchArray::<f64>::filled(n, f64::INFINITY);
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
         n: w * h,
@@ -217,7 +218,7 @@ fn render_radial_with(
         if direct.is_none() {
             for &(k, p) in &px {
                 set[k] = p.set;
-                depth[k] = p.depth;
+                depth[k] = if p.set { p.depth } else { f64::INFINITY };
             }
             all.push(px);
         }
@@ -885,8 +886,9 @@ fn solve_from_seeds(ctx: &Ctx<'_>, cands: &[SeedSearch]) -> Vec<(Vec<(usize, Pix
 /// (appended to `ks`): on the image's border, every pixel (the search
 /// itself tells); inside, an unset pixel with a set 4-neighbour, or a set
 /// one with a 4-neighbour nearer by more than four footprints. The flags
-/// are computed branch-free over the row (in `flags`), the unset pixels'
-/// depths garbage but masked by their flags.
+/// are computed branch-free over the row (in `flags`) from the depths
+/// alone, an unset pixel's being +∞ (the callers' arrays hold +∞ wherever
+/// `set` is false).
 #[allow(clippy::too_many_arguments)]
 fn scan_row(
     set: &[bool],
@@ -972,35 +974,26 @@ impl RowNeighbours<'_> {
         let [dc, dl, dr, du, dd] = self.depth.map(|x| &x[..n]);
         // Pixels m..m + K (K = 8, or the row's last few), straight-line
         // code over arrays that the compiler vectorises: the nearest set
-        // neighbour's depth (+∞: none set; set pixels' depths are finite,
-        // so no key is NaN and a plain compare-select stands for f64::min,
-        // whose NaN rule would keep the loop scalar) against the pixel's
-        // own less four footprints.
+        // neighbour's depth (an unset pixel's is +∞, so that the depths
+        // alone tell; set pixels' depths are finite, so none is NaN and a
+        // plain compare-select stands for f64::min, whose NaN rule would
+        // keep the loop scalar) against the pixel's own less four
+        // footprints.
         #[inline(always)]
-        fn block<const K: usize>(
-            s: [&[bool]; 5],
-            d: [&[f64]; 5],
-            m: usize,
-            fp: Footprint,
-        ) -> [u8; K] {
-            let sv = s.map(|x| -> [bool; K] { x[m..m + K].try_into().expect("K flags") });
+        fn block<const K: usize>(d: [&[f64]; 5], m: usize, fp: Footprint) -> [u8; K] {
             let dv = d.map(|x| -> [f64; K] { x[m..m + K].try_into().expect("K depths") });
-            let key = |k: usize, q: usize| if sv[k][q] { dv[k][q] } else { f64::INFINITY };
             let min = |a: f64, b: f64| if a < b { a } else { b };
             let mut o = [0u8; K];
             for (q, o) in o.iter_mut().enumerate() {
-                let near = min(min(key(1, q), key(2, q)), min(key(3, q), key(4, q)));
+                let near = min(min(dv[1][q], dv[2][q]), min(dv[3][q], dv[4][q]));
+                // (+∞ less a finite footprint for an unset pixel: +∞)
                 let dk = dv[0][q];
-                let lim = if sv[0][q] {
-                    dk - 4.0 * fp.at(dk)
-                } else {
-                    f64::INFINITY
-                };
+                let lim = dk - 4.0 * fp.at(min(dk, 1e300));
                 *o = (near < lim) as u8;
             }
             o
         }
-        let (s, d) = ([sc, sl, sr, su, sd], [dc, dl, dr, du, dd]);
+        let d = [dc, dl, dr, du, dd];
         // Eight pixels at a time; where none of them or their neighbours is
         // set (the background), their depths are not read.
         let mut m = 0;
@@ -1009,13 +1002,13 @@ impl RowNeighbours<'_> {
             let o: [u8; 8] = if any == 0 {
                 [0; 8]
             } else {
-                block::<8>(s, d, m, fp)
+                block::<8>(d, m, fp)
             };
             out[m..m + 8].copy_from_slice(&o);
             m += 8;
         }
         while m < n {
-            out[m] = block::<1>(s, d, m, fp)[0];
+            out[m] = block::<1>(d, m, fp)[0];
             m += 1;
         }
     }
@@ -1062,8 +1055,9 @@ const GROW_ROUNDS: usize = 2;
 /// A converged root is a true crossing of the ray, and its first, as the
 /// neighbour's whose sheet it is lies a pixel away ([`solve_from_seeds`]).
 /// The first round's two kinds are found in one pass over the image and
-/// solved together. Returns the moved pixels (their depths updated); the
-/// pixels set are added to `px`. With `fill`, that pass also writes the
+/// solved together. `depth` holds +∞ wherever `set` is false (and the
+/// pixels' depths where true). Returns the moved pixels (their depths
+/// updated); the pixels set are added to `px`. With `fill`, that pass also writes the
 /// background of the pixels not set there ([`SharedOut::fill_unset`]; the
 /// pixels the searches set are written over it afterwards).
 pub(super) fn edge_searches(
@@ -2201,6 +2195,47 @@ struct SideChecks {
     hs: Vec<HeightSample>,
 }
 
+impl SideChecks {
+    /// Drop the entry points below the surface's lower bound over their
+    /// (u, v) box (they enter from below, as the under side is seen: no
+    /// evaluation needed to tell). A bin's rays share their azimuth, so
+    /// that they enter the domain within a bin's width of each other and
+    /// one bound over that small box decides most of them. (A bound is
+    /// rigorous; a point within 10⁻⁹ of it relative is kept for its
+    /// evaluation.)
+    fn below_bound(&mut self, field: &dyn crate::surface::HeightField) {
+        if self.starts.is_empty() {
+            return;
+        }
+        let range = |x: &[f64]| {
+            x.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                })
+        };
+        let ((u0, u1), (v0, v1)) = (range(&self.u), range(&self.v));
+        let Some((lo, _)) = field.height_range_in(u0, u1, v0, v1) else {
+            return;
+        };
+        let lo = lo - 1e-9 * lo.abs();
+        if !lo.is_finite() {
+            return;
+        }
+        let mut w = 0;
+        for i in 0..self.starts.len() {
+            if self.starts[i].3 >= lo {
+                self.starts[w] = self.starts[i];
+                self.u[w] = self.u[i];
+                self.v[w] = self.v[i];
+                w += 1;
+            }
+        }
+        self.starts.truncate(w);
+        self.u.truncate(w);
+        self.v.truncate(w);
+    }
+}
+
 /// One pixel of a bin to solve on its ray from the eye (see
 /// [`RadialSweep::solve`]).
 #[derive(Debug, Clone, Copy)]
@@ -3160,6 +3195,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     ck.v.push(p.y);
                 }
             }
+            ck.below_bound(ctx.field);
             // (grown only: a height field's batch writes every element)
             if ck.hs.len() < ck.u.len() {
                 ck.hs.resize(ck.u.len(), HeightSample::default());

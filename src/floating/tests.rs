@@ -1131,3 +1131,21 @@ fn plain_renders_write_every_pixel() {
         }
     }
 }
+
+#[test]
+fn run_end_finds_each_run() {
+    // Every flag pattern of up to 19 flags (runs across the eight-flag
+    // steps and the tail), from every start, against a flag-by-flag scan.
+    let mut rng = crate::test_rng::uniform(7);
+    for len in 0..20usize {
+        for _ in 0..200 {
+            let flags: Vec<bool> = (0..len).map(|_| rng() < 0.7).collect();
+            for j in 0..=len {
+                for x in [true, false] {
+                    let naive = (j..len).find(|&q| flags[q] != x).unwrap_or(len);
+                    assert_eq!(run_end(&flags, j, x), naive, "{flags:?} from {j}, {x}");
+                }
+            }
+        }
+    }
+}
