@@ -302,6 +302,9 @@ struct Sweep<'c, 'a> {
     grew: bool,
     /// The sampler's domain bounds ([`Sampler::bounds`]) for its look-ahead.
     bounds: [f64; 4],
+    /// Has a pixel been put in the column's own buffer ([`Self::pixel`])?
+    /// (With `direct`, the others go straight to the render's buffers.)
+    wrote: bool,
 }
 
 /// Buffers a worker reuses from column to column.
@@ -320,6 +323,10 @@ pub struct ColumnScratch {
     /// The shared evaluations and solve buffers of a group of columns
     /// (kept by its first).
     pool: Pool,
+    /// Whether the last column put a pixel in `centre` (where a render
+    /// that writes its pixels directly finds the few it did not: with
+    /// none, `centre` need not be read).
+    pub centre_written: bool,
 }
 
 /// Render one (possibly fractional) column `col` into `out` (length H).
@@ -550,6 +557,7 @@ async unsafe fn column_task(
         detect: ctx.opts.corrections.any_detection(),
         grew: false,
         bounds,
+        wrote: false,
     };
     if !fr.persp {
         if let Some((t0, t1)) = fr.domain_t_range_at_s(line.s0) {
@@ -642,6 +650,7 @@ async unsafe fn column_task(
     sc.jobs = std::mem::take(&mut sw.jobs);
     sc.seeds = std::mem::take(&mut sw.seeds);
     sc.spans = std::mem::take(&mut sw.spans);
+    sc.centre_written = sw.wrote;
     sw.stats
 }
 
@@ -1578,6 +1587,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         topo: i8,
         wall: bool,
     ) -> Pixel {
+        self.wrote = true;
         let fr = &self.ctx.frame;
         let row = i as f64;
         // Orthographic spans: the point on the cubic through the two

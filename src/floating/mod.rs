@@ -600,6 +600,10 @@ fn ortho_group(
     // renders the columns js.
     let st = unsafe { column::render_columns_direct(ctx, js.clone(), scs, Some((out, w))) };
     for (j, sc) in js.zip(scs.iter_mut()) {
+        // (most columns put every pixel straight into the buffers)
+        if !sc.centre_written {
+            continue;
+        }
         for (i, p) in sc.centre.iter_mut().enumerate() {
             if p.set {
                 // SAFETY: pixel (i, j) belongs to column j only.
