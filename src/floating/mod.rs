@@ -951,11 +951,7 @@ impl<'a> SharedOut<'a> {
 #[inline]
 fn run_end(flags: &[bool], mut j: usize, x: bool) -> usize {
     let all = if x { 0x0101_0101_0101_0101u64 } else { 0 };
-    while j + 8 <= flags.len() {
-        let b: &[bool; 8] = flags[j..j + 8].try_into().expect("eight flags");
-        if u64::from_le_bytes(b.map(u8::from)) != all {
-            break;
-        }
+    while j + 8 <= flags.len() && radial::bytes8(flags, j) == all {
         j += 8;
     }
     while j < flags.len() && flags[j] == x {

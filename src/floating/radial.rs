@@ -102,10 +102,10 @@ fn render_radial_with(
     let cands = runs.candidates();
     // Which pixels are set and their depths, compactly (for the hole
     // filling): written by the bins (each its own pixels) when they write
-    // their pixels directly, else gathered from their lists. A depth is
-    // read only where its pixel is set, which writes it.
+    // their pixels directly, else gathered from their lists. An unset
+    // pixel's depth is +∞ (the searches' scan reads depths alone, see
+    // [`edge_searches`]).
     let mut set = ScratchArray::<bool>::zeroed(n);
-    // (+∞ where unset: see [`edge_searches`])
     let mut depth = ScratchArray::<f64>::filled(n, f64::INFINITY);
     let direct = direct.filter(|_| !ctx.opts.coverage);
     let marks = Marks {
@@ -1923,7 +1923,7 @@ fn sort_rays(rays: &mut [Ray]) {
 
 /// Eight set flags from index a, one byte each (1: set).
 #[inline]
-fn bytes8(set: &[bool], a: usize) -> u64 {
+pub(super) fn bytes8(set: &[bool], a: usize) -> u64 {
     let b: &[bool; 8] = set[a..a + 8].try_into().expect("eight flags");
     u64::from_le_bytes(b.map(u8::from))
 }

@@ -540,8 +540,10 @@ impl Default for Ahead {
 impl Ahead {
     /// A look-ahead of batches up to `max` samples.
     pub fn with_max(max: usize) -> Self {
+        let max = max.max(1);
         Ahead {
-            max: max.max(1),
+            max,
+            k: Ahead::default().k.min(max),
             ..Ahead::default()
         }
     }
