@@ -934,6 +934,74 @@ impl SpanCubic {
     }
 }
 
+/// A value linear in a span's points, c_t·t + c_w·w′ (an orthographic
+/// depth, a perspective bin's horizontal distance or height), as the cubic
+/// Hermite in the row through the two samples, with its exact slopes
+/// there (dv/dρ = (c_t + c_w·dw′/dt) / (dρ/dt)): one Horner line per row
+/// where [`SpanCubic::at`] first solves its rows' cubic for τ. Only for a
+/// span whose rows rise about evenly along it, each end's row slope within
+/// [`ROW_GRAPH`] of the chord's: there the two curves are equally good
+/// seeds (bench view, 480 × 477: 2 % more evaluations in the exact solves,
+/// 4 % fewer instructions per render), while a slope far from the chord's
+/// (the span nears a silhouette or a crest) makes dv/dρ large and the
+/// graph a poor fit.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RowCubic<const N: usize> {
+    rho0: f64,
+    inv_dr: f64,
+    k: [[f64; 4]; N],
+}
+
+/// Row slope at a span's ends over the chord's, within which [`RowCubic`]
+/// is used: [1/√2, √2].
+pub(super) const ROW_GRAPH: (f64, f64) =
+    (std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::SQRT_2);
+
+impl<const N: usize> RowCubic<N> {
+    /// The cubics of the values c_t·t + c_w·w′ for each (c_t, c_w) of `c`.
+    #[inline]
+    pub(super) fn new(a: &Sample, b: &Sample, c: [(f64, f64); N]) -> Option<RowCubic<N>> {
+        let dt = b.t - a.t;
+        let dr = b.rho - a.rho;
+        let inv_dr = 1.0 / dr;
+        // (false for NaN: a flat or non-finite span is left to SpanCubic)
+        let (al, be) = (a.drho_dt * dt * inv_dr, b.drho_dt * dt * inv_dr);
+        let (lo, hi) = ROW_GRAPH;
+        if !(al >= lo && al <= hi && be >= lo && be <= hi) {
+            return None;
+        }
+        let mut k = [[0.0; 4]; N];
+        let mut finite = 0.0;
+        for (k, (ct, cw)) in k.iter_mut().zip(c) {
+            let (va, vb) = (ct * a.t + cw * a.wr, ct * b.t + cw * b.wr);
+            // dv/ds at each end (s = (ρ − ρ_a)/(ρ_b − ρ_a)): dv/dτ over
+            // ds/dτ.
+            let ma = (ct + cw * a.dw_dt) * dt / al;
+            let mb = (ct + cw * b.dw_dt) * dt / be;
+            *k = [
+                2.0 * (va - vb) + ma + mb,
+                3.0 * (vb - va) - 2.0 * ma - mb,
+                ma,
+                va,
+            ];
+            finite += k.iter().map(|&x| finite_zero(x)).sum::<f64>();
+        }
+        (finite == 0.0).then_some(RowCubic {
+            rho0: a.rho,
+            inv_dr,
+            k,
+        })
+    }
+
+    /// The row's weight s in the span (linear in the row, for the
+    /// interpolations that a weight serves) and the values at row `row`.
+    #[inline(always)]
+    pub(super) fn at(&self, row: f64) -> (f64, [f64; N]) {
+        let s = (row - self.rho0) * self.inv_dr;
+        (s, self.k.map(|k| ((k[0] * s + k[1]) * s + k[2]) * s + k[3]))
+    }
+}
+
 impl<'c, 'a> Sweep<'c, 'a> {
     #[inline]
     fn clamp_row(&self, r: f64) -> f64 {
@@ -1481,16 +1549,27 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 };
                 let k = self.spans.len() as u32;
                 let mut queued = false;
+                // (the depth over the rows where the span is well
+                // conditioned, else on its cubic in τ)
+                let graph = RowCubic::new(a, b, [(fr.d_t, fr.d_w)]);
                 for i in i0..i1 + 1 {
                     let row = i as f64;
                     if self.cov.contains(row) {
                         continue;
                     }
-                    let Some((tau, t, w)) = c.at(row) else {
-                        out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
-                        continue;
+                    let (tau, lam) = match &graph {
+                        Some(g) => {
+                            let (s, [lam]) = g.at(row);
+                            (s, lam)
+                        }
+                        None => match c.at(row) {
+                            Some((tau, t, w)) => (tau, t * fr.d_t + w * fr.d_w),
+                            None => {
+                                out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
+                                continue;
+                            }
+                        },
                     };
-                    let lam = t * fr.d_t + w * fr.d_w;
                     if self.fine.is_some() {
                         out[i as usize] = seed.pixel(tau, lam);
                     }

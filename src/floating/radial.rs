@@ -2146,7 +2146,9 @@ pub(crate) fn fast_atan2(y: f64, x: f64) -> f64 {
 
 /// What the pixels of one span share: the samples' points, the nearer and
 /// farther of their distances from the eye and the difference, the side
-/// revealed, and the span's cubic (none for walls).
+/// revealed, and the span's cubics (none for walls): its horizontal
+/// distance and height over the elevations where the span is well
+/// conditioned ([`super::column::RowCubic`]), else its cubic in τ.
 struct SpanConst {
     pa: DVec3,
     pb: DVec3,
@@ -2154,6 +2156,7 @@ struct SpanConst {
     far: f64,
     span: f64,
     topo: i8,
+    graph: Option<super::column::RowCubic<2>>,
     cubic: Option<super::column::SpanCubic>,
 }
 
@@ -2163,6 +2166,11 @@ impl SpanConst {
         let e = ctx.cam.eye;
         let (pa, pb) = (a.world(&ctx.frame), b.world(&ctx.frame));
         let (la, lb) = ((pa - e).length(), (pb - e).length());
+        let graph = if wall {
+            None
+        } else {
+            super::column::RowCubic::new(a, b, [(1.0, 0.0), (0.0, 1.0)])
+        };
         SpanConst {
             pa,
             pb,
@@ -2171,7 +2179,8 @@ impl SpanConst {
             span: (la - lb).abs(),
             // Upwards (θ increasing) reveals the upper side, in world terms.
             topo: if b.rho > a.rho { 1 } else { -1 },
-            cubic: if wall {
+            graph,
+            cubic: if wall || graph.is_some() {
                 None
             } else {
                 super::column::SpanCubic::new(a, b)
@@ -3468,7 +3477,13 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         // the two samples (horizontal distance and height with their exact
         // slopes), or, where that cubic folds over (a silhouette between the
         // samples), on the chord with an exact solve to follow.
-        let herm = sp.cubic.as_ref().and_then(|c| c.at(th));
+        let herm = match &sp.graph {
+            Some(g) => {
+                let (s, [r, w]) = g.at(th);
+                Some((s, r, w))
+            }
+            None => sp.cubic.as_ref().and_then(|c| c.at(th)),
+        };
         let (tau, p) = match herm {
             Some((tau, r, w)) => {
                 let h = DVec2::new(e.x, e.y) + r * self.eh;
