@@ -1141,7 +1141,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
         let fr = self.ctx.frame;
         // An orthographic column whose pixels are solved exactly: longer
         // steps by default, each held to a bend and crests sampled (see
-        // `bend_step` and `crest`).
+        // `bend_limit` and `crest`).
         let exact = self.ctx.refine && !fr.persp;
         let step_px = opts.sweep_step(exact, false);
         let tt = |tau: f64| t_start + sign * tau;
@@ -1165,8 +1165,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
         // Stretches outside the image stepped over at once (orthographic
         // columns): not before this τ again after a try that failed.
         let skips = !fr.persp && opts.skip_outside;
-        // |ρ''| over the last step taken (0: unknown), for `bend_step`.
-        let mut bend = 0.0f64;
+        // The step the last step's bend allows (∞: unknown), `bend_limit`.
+        let mut bend = f64::INFINITY;
         let crests = exact && !self.detect;
         // (a sample deep in the covered rows may step farther, see `deep`)
         let long = opts.long_steps(exact);
@@ -1218,8 +1218,8 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 let r = pa.drho_dt.abs();
                 if positive_finite(r) {
                     let mut hm = step_px / r;
-                    if exact && bend > 0.0 {
-                        hm = min_num(hm, bend_step(bend, BEND));
+                    if exact {
+                        hm = min_num(hm, bend);
                     }
                     (min_num(AIM * hm, cap), min_num(hm, cap))
                 } else {
@@ -1269,7 +1269,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                         };
                         self.span(from.as_ref().unwrap_or(a), b, wall, out);
                         last_w = b.wr;
-                        bend = bend_over(a, b, 1.0);
+                        bend = bend_limit(a, b, 1.0, BEND);
                         // The candidate becomes the previous sample.
                         std::mem::swap(&mut pa, &mut pb);
                         tau = tau_n;
@@ -1521,14 +1521,22 @@ impl<'c, 'a> Sweep<'c, 'a> {
             let topo: i8 = if upward == fr.upper_if_upward { 1 } else { -1 };
             // Orthographic spans: the cubic through the two samples (set up
             // once per span); perspective ones and walls: linear weights.
-            let cubic = if fr.persp || wall {
+            let cam = self.ctx.cam;
+            let dd = cam.d.dot(cam.d);
+            let solved = !fr.persp && !wall && self.ctx.refine && dd > 0.0;
+            // (the depth over the rows where the span is well conditioned,
+            // else on its cubic in τ, not set up then)
+            let graph = if solved {
+                RowCubic::new(a, b, [(fr.d_t, fr.d_w)])
+            } else {
+                None
+            };
+            let cubic = if fr.persp || wall || graph.is_some() {
                 None
             } else {
                 SpanCubic::new(a, b)
             };
-            let cam = self.ctx.cam;
-            let dd = cam.d.dot(cam.d);
-            if let (Some(c), true) = (&cubic, self.ctx.refine && dd > 0.0) {
+            if solved && (graph.is_some() || cubic.is_some()) {
                 // The common orthographic case, every pixel queued for its
                 // exact solve and written once when it ends
                 // ([`solve_ortho`]): its seed depth and its
@@ -1549,9 +1557,6 @@ impl<'c, 'a> Sweep<'c, 'a> {
                 };
                 let k = self.spans.len() as u32;
                 let mut queued = false;
-                // (the depth over the rows where the span is well
-                // conditioned, else on its cubic in τ)
-                let graph = RowCubic::new(a, b, [(fr.d_t, fr.d_w)]);
                 for i in i0..i1 + 1 {
                     let row = i as f64;
                     if self.cov.contains(row) {
@@ -1562,7 +1567,7 @@ impl<'c, 'a> Sweep<'c, 'a> {
                             let (s, [lam]) = g.at(row);
                             (s, lam)
                         }
-                        None => match c.at(row) {
+                        None => match cubic.as_ref().and_then(|c| c.at(row)) {
                             Some((tau, t, w)) => (tau, t * fr.d_t + w * fr.d_w),
                             None => {
                                 out[i as usize] = self.pixel(a, b, &cubic, i as usize, topo, wall);
@@ -1872,7 +1877,7 @@ pub(crate) fn hermite_inside(p0: f64, p1: f64, m0: f64, m1: f64, lo: f64, hi: f6
 }
 
 /// Largest row deviation from the chord allowed over a step of an exactly
-/// solved orthographic column, in rows (see [`bend_step`]).
+/// solved orthographic column, in rows (see [`bend_limit`]).
 pub(super) const BEND: f64 = 0.05;
 
 /// The same for a perspective sweep, in local pixels: there the pixels
@@ -1900,19 +1905,29 @@ pub(super) const BEND_RADIAL: f64 = 0.2;
 /// the sweeps, lose pixels on their edge views to it.)
 pub(super) const DEEP_MAX: f64 = 2.0;
 
-/// The longest step (in t) over which a row curve bending at |ρ''| =
-/// `rho2` (rows per t²) stays within `bend` rows of its chord ([`BEND`],
-/// [`BEND_RADIAL`]): the deviation of a parabola from its chord over a
-/// step h is |ρ''| h² / 8. With it the row gap between samples can be 5
-/// pixels where the curve is nearly straight (the cubic between them still
-/// seeds each pixel's solve to well under the solve's tolerance) while fine
-/// ripples and folds keep short steps, so that features between samples are
-/// not stepped over.
-#[inline]
-pub(super) fn bend_step(rho2: f64, bend: f64) -> f64 {
-    (8.0 * bend / rho2).sqrt()
+/// The longest step (in t) after the step from sample a to b over which
+/// the row curve, bending as it did over that step (|ρ''| = |Δρ'/Δt| in
+/// rows per t², times `scale`, local pixels per row), stays within `bend`
+/// rows of its chord ([`BEND`], [`BEND_RADIAL`]): the deviation of a
+/// parabola from its chord over a step h is |ρ''| h² / 8. With it the row
+/// gap between samples can be 5 pixels where the curve is nearly straight
+/// (the cubic between them still seeds each pixel's solve to well under
+/// the solve's tolerance) while fine ripples and folds keep short steps,
+/// so that features between samples are not stepped over. ∞ where the
+/// curve did not bend or its bend is not finite. (One division and a
+/// square root from the sample to the limit: the next step waits on it.)
+#[inline(always)]
+pub(super) fn bend_limit(a: &Sample, b: &Sample, scale: f64, bend: f64) -> f64 {
+    let h2 = 8.0 * bend * (b.t - a.t).abs() / ((b.drho_dt - a.drho_dt).abs() * scale);
+    // (NaN and a negative zero fail: no limit)
+    if h2 >= 0.0 {
+        h2.sqrt()
+    } else {
+        f64::INFINITY
+    }
 }
 
+/// [`hermite_monotone`] for the rows of the cubic between samples a and b
 /// The cubic Hermite through (0, p0), (1, p1) with slopes m0, m1 stays
 /// within [min(p0, p1), max(p0, p1)] by the Fritsch–Carlson condition (a
 /// sufficient one: most spans pass it, and the callers test it in line
@@ -1921,18 +1936,6 @@ pub(super) fn bend_step(rho2: f64, bend: f64) -> f64 {
 pub(crate) fn hermite_monotone(p0: f64, p1: f64, m0: f64, m1: f64) -> bool {
     let dr = p1 - p0;
     m0 * dr >= 0.0 && m1 * dr >= 0.0 && m0 * m0 + m1 * m1 <= 9.0 * dr * dr
-}
-
-/// |ρ''| over the step from sample a to b, in rows per t² times `scale`
-/// (local pixels per row; 0 where it is not finite), for [`bend_step`].
-#[inline(always)]
-pub(super) fn bend_over(a: &Sample, b: &Sample, scale: f64) -> f64 {
-    let k = ((b.drho_dt - a.drho_dt) / (b.t - a.t)).abs() * scale;
-    if k.is_finite() {
-        k
-    } else {
-        0.0
-    }
 }
 
 /// [`hermite_monotone`] for the rows of the cubic between samples a and b

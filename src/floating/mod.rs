@@ -122,7 +122,7 @@ impl FloatingOptions {
     /// bin's (`radial`: perspective, in local pixels), `exact` whether its
     /// pixels are solved on their rays: by default 5 there, 8 in a bin
     /// (each step also held to a bend, and crests between samples sampled:
-    /// see `column::bend_step`), else [`FloatingOptions::step`]. A bin's
+    /// see `column::bend_limit`), else [`FloatingOptions::step`]. A bin's
     /// edge pixels and depth steps are searched on their own rays after
     /// the sweeps: its longer steps show neither in the edge views' counts
     /// nor against the exact hit (bench view, 480 × 477: 17 % fewer sweep

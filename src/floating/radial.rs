@@ -1869,8 +1869,8 @@ struct RunState {
     /// The current step is such a stretch: its candidate lies in it, so
     /// its gap to the previous sample is no reason to retry.
     skipping: bool,
-    /// |ρ''| in local pixels over the last step taken (0: unknown), for
-    /// [`super::column::bend_step`].
+    /// The step the last step's bend allows (∞: unknown), see
+    /// [`super::column::bend_limit`].
     bend: f64,
 }
 
@@ -2790,7 +2790,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
         st.rho = r0;
         st.r1 = r1;
         st.steps = 0;
-        st.bend = 0.0;
+        st.bend = f64::INFINITY;
         st.first = true;
         st.skips = ctx.opts.skip_outside;
         st.no_skip_until = f64::NEG_INFINITY;
@@ -2856,11 +2856,8 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                     (cap, cap)
                 } else if !deep && positive_finite(r) {
                     let mut hm = step / r;
-                    if ctx.refine && st.bend > 0.0 {
-                        hm = min_num(
-                            hm,
-                            super::column::bend_step(st.bend, super::column::BEND_RADIAL),
-                        );
+                    if ctx.refine {
+                        hm = min_num(hm, st.bend);
                     }
                     (min_num(hm, cap), min_num(super::column::AIM * hm, cap))
                 } else {
@@ -3090,7 +3087,7 @@ impl<'c, 'a> RadialSweep<'c, 'a> {
                         None => self.span(a, b, wall),
                     }
                     // (in local pixels)
-                    st.bend = super::column::bend_over(a, b, rate);
+                    st.bend = super::column::bend_limit(a, b, rate, super::column::BEND_RADIAL);
                     // (b is the next step's previous sample)
                     st.rate = rb;
                 }
