@@ -132,9 +132,21 @@ fn parse_options(o: &Options<'_>, method: &str) -> PyResult<FloatingOptions> {
 ///   (4.0; 2.0 with `coverage`): largest step along a sweep, in pixel
 ///   footprints (step=1, max_step=2: the dense sweep, 1.5–2× the
 ///   samples);
-/// * `ridges`, `bumps`, `jumps` (False): §5 detections; `correction`
-///   ("supersample" or "spline"), `rate` (8), `threshold` (0.0625);
-///   `walls` (True): shade steps as walls (§5.1);
+/// * `ridges`, `bumps`, `jumps` (False): §5 detections between two
+///   samples (V·N changes sign, the normal swings past the view in the
+///   sweep's plane, the intensity steps by more than `threshold`, 0.0625);
+///   `correction`: "supersample" (the span split into `rate` (8) parts) or
+///   "spline" (one at the extremum of the cubic through them: the crest's
+///   top, the bump's brightest point); `walls` (True): shade steps as
+///   walls (§5.1). With the seed's sampling (`step=8, max_step=8,
+///   refine=False`), supersampling lowers the shading error on the pixels
+///   it changes by 2–500× (intensity shading; jumps and bumps under normal
+///   shading 1.8–300×), and either correction restores an orthographic
+///   crest cut off between samples (worst depth error 3.5 → 0.08 px);
+///   the spline lowers a bump's error by a fifth to two fifths, but with
+///   `shading="intensity"` its ridge-top sample, dark at the silhouette,
+///   spreads over the span (14–17 % more error on the pixels it changes):
+///   there, supersample (the bench's correction rows give the figures);
 /// * `antialias` (1): column supersampling of rgb/intensity (§6.4): k
 ///   sub-columns per pixel column, averaged (perspective views: k passes
 ///   of the radial sweep at sub-column offsets);

@@ -415,6 +415,48 @@ def landscape_rows(repeat: int) -> list[dict]:
     return rows
 
 
+# The §5 corrections at the seed's sampling (its artifacts need it).
+SEEDLIKE = dict(step=8.0, max_step=8.0, refine=False, specular=0.0)
+CORRECTIONS = {
+    "ridges, supersample": dict(ridges=True, rate=16),
+    "ridges, spline": dict(ridges=True, correction="spline"),
+    "jumps, supersample": dict(jumps=True, rate=16),
+    "bumps, supersample": dict(bumps=True, rate=16),
+    "bumps, spline": dict(bumps=True, correction="spline"),
+    "all three, supersample": dict(ridges=True, jumps=True, bumps=True, rate=16),
+}
+
+
+def correction_rows(surf, w: int, h: int) -> list[dict]:
+    """Each §5 correction against the exact hit, on the pixels it changes
+    (``fcol.testing.reference.correction_effect``): the shading error
+    without and with it under each shading, the crest's geometry (mask
+    differences, worst depth error), and the samples taken, on the bench
+    views with the seed's sampling (samples up to 8 pixels apart, no exact
+    solve)."""
+    from fcol.testing.reference import correction_effect, height_reference
+
+    outs = ("intensity", "depth", "mask")
+    rows = []
+    for vname, view in views().items():
+        ref = height_reference(f_np, grad_np, DOMAIN, view, w, h)
+        for shading in ("intensity", "normal"):
+            base = fcol.render(surf, view, w, h, outputs=outs, shading=shading, **SEEDLIKE)
+            for name, kw in CORRECTIONS.items():
+                fixed = fcol.render(surf, view, w, h, outputs=outs, shading=shading, **SEEDLIKE, **kw)
+                e = correction_effect(base, fixed, ref, view)
+                rows.append(dict(method=f"correction {name}, {shading} shading, step 8", view=vname,
+                                 size=f"{w}x{h}", samples=fixed.samples, samples_without=base.samples,
+                                 changed_px=e["changed"],
+                                 inten_mean_without=e["intensity_mean_before"],
+                                 inten_mean_with=e["intensity_mean_after"],
+                                 inten_p99_without=e["intensity_p99_before"],
+                                 inten_p99_with=e["intensity_p99_after"],
+                                 mask_diff_without=e["mask_diff_before"], mask_diff_with=e["mask_diff_after"],
+                                 depth_max_without=e["depth_max_before"], depth_max_with=e["depth_max_after"]))
+    return rows
+
+
 def run(out_dir: Path, quick: bool) -> list[dict]:
     from fcol.testing.reference import compare, height_reference
 
@@ -484,6 +526,8 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
                     plot.append((f"mesh {n}² {kind} ({vname})", t_cast, res.get("normal_deg_p99", np.nan)))
     # The speed targets, round by round.
     rows.extend(target_rows(surf, sizes, 2 if quick else 5, (200,) if quick else (800, 3200)))
+    # The §5 corrections, each with and without, at the seed's sampling.
+    rows.extend(correction_rows(surf, W, H))
     # A landscape from a low eye: the height bound's early exit.
     rows.extend(landscape_rows(3 if quick else 7))
     # matplotlib plot_surface to an array (its own camera: time only).
