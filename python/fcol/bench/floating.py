@@ -195,12 +195,12 @@ MESHES = {
 
 
 def target_rows(surf, sizes, rounds: int, mesh_ns: tuple[int, ...]) -> list[dict]:
-    """The issue's speed targets as ratios taken round by round, each round
+    """The speed targets as ratios taken round by round, each round
     timing the default column beside what it is compared with (one after
     the other, so that the machine's drifts cancel): time / NumPy floor at
     each size, and at 480 × 477 each mesh baseline's cast and build + cast
     over the column (``MESHES``: trimesh + embreex as users call it, the
-    issue's baseline, and the lean cast, the strongest we know to write),
+    targets' baseline, and the lean cast, the strongest we know to write),
     for each mesh resolution of ``mesh_ns`` (n² vertices; each mesh built
     once, its build timed once). Every mesh here has normals far less
     accurate than the column's (the row says how much: its median and
