@@ -10,38 +10,34 @@ geometry for the corrugated ridges."""
 
 from __future__ import annotations
 
+import functools
+
 import pytest
 
 import fcol
-from fcol.testing.reference import correction_effect, height_reference
-
-from floating_surfaces import SURFACES
+from fcol.bench.floating import DOMAIN, EXPR, SEEDLIKE, bench_reference, views
+from fcol.testing.reference import correction_effect
 
 W, H = 480, 477
-VIEWS = {
-    "ortho": fcol.View(30, 30, view_height=13.0),
-    "persp": fcol.View(30, 40, "perspective", distance=24.0, fov=40.0),
-}
-# The seed's sampling; no specular term, as the reference's shading model.
-SEEDLIKE = dict(step=8.0, max_step=8.0, refine=False, specular=0.0)
+VIEWS = views()
 OUTS = ("intensity", "depth", "mask")
 
-_REFS: dict = {}
+
+@functools.lru_cache(maxsize=None)
+def base(vname, shading):
+    """The render without corrections (the seed's sampling; no specular
+    term, as the reference's shading model)."""
+    return render(vname, shading)
 
 
-def reference(vname):
-    if vname not in _REFS:
-        f, grad, domain = SURFACES["sinuv"]
-        _REFS[vname] = height_reference(f, grad, domain, VIEWS[vname], W, H)
-    return _REFS[vname]
+def render(vname, shading, **correction):
+    surf = fcol.Function(EXPR, domain=DOMAIN)
+    return fcol.render(surf, VIEWS[vname], W, H, outputs=OUTS, shading=shading, **SEEDLIKE, **correction)
 
 
 def effect(vname, shading, **correction):
-    surf = fcol.Function("3*sin(u*cos(v))", domain=SURFACES["sinuv"][2])
-    view = VIEWS[vname]
-    base = fcol.render(surf, view, W, H, outputs=OUTS, shading=shading, **SEEDLIKE)
-    fixed = fcol.render(surf, view, W, H, outputs=OUTS, shading=shading, **SEEDLIKE, **correction)
-    return correction_effect(base, fixed, reference(vname), view)
+    fixed = render(vname, shading, **correction)
+    return correction_effect(base(vname, shading), fixed, bench_reference(vname, W, H), VIEWS[vname])
 
 
 @pytest.mark.parametrize("vname", list(VIEWS))

@@ -30,6 +30,7 @@ Errors are against ``fcol.testing.reference`` (the exact first hit)."""
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import subprocess
@@ -74,6 +75,16 @@ def views() -> dict[str, Any]:
         "ortho": fcol.View(30, 30, view_height=13.0),
         "persp": fcol.View(30, 40, "perspective", distance=24.0, fov=40.0),
     }
+
+
+@functools.lru_cache(maxsize=4)
+def bench_reference(vname: str, w: int, h: int):
+    """The exact reference of bench view ``vname`` at w × h, built once per
+    process (the bench's rows, its target rows and its correction rows
+    share it)."""
+    from fcol.testing.reference import height_reference
+
+    return height_reference(f_np, grad_np, DOMAIN, views()[vname], w, h)
 
 
 # ---------------------------------------------------------------- baselines
@@ -208,7 +219,7 @@ def target_rows(surf, sizes, rounds: int, mesh_ns: tuple[int, ...]) -> list[dict
     column's), so each ratio is a lower bound of the ratio at equal error;
     the finest mesh gives the tightest bound. Median and range over the
     rounds."""
-    from fcol.testing.reference import compare, height_reference
+    from fcol.testing.reference import compare
 
     outs = ("rgb", "depth", "normal", "mask")
     vs = views()
@@ -223,7 +234,7 @@ def target_rows(surf, sizes, rounds: int, mesh_ns: tuple[int, ...]) -> list[dict
     w, h = sizes[0]
     col_err = {}
     for vname, view in vs.items():
-        ref = height_reference(f_np, grad_np, DOMAIN, view, w, h)
+        ref = bench_reference(vname, w, h)
         res = compare(fcol.render(surf, view, w, h, outputs=outs), ref, view)
         col_err[vname] = (ref, res["normal_deg_median"], res["normal_deg_p99"])
     for kind, caster in MESHES.items():
@@ -434,12 +445,12 @@ def correction_rows(surf, w: int, h: int) -> list[dict]:
     differences, worst depth error), and the samples taken, on the bench
     views with the seed's sampling (samples up to 8 pixels apart, no exact
     solve)."""
-    from fcol.testing.reference import correction_effect, height_reference
+    from fcol.testing.reference import correction_effect
 
     outs = ("intensity", "depth", "mask")
     rows = []
     for vname, view in views().items():
-        ref = height_reference(f_np, grad_np, DOMAIN, view, w, h)
+        ref = bench_reference(vname, w, h)
         for shading in ("intensity", "normal"):
             base = fcol.render(surf, view, w, h, outputs=outs, shading=shading, **SEEDLIKE)
             for name, kw in CORRECTIONS.items():
@@ -458,7 +469,7 @@ def correction_rows(surf, w: int, h: int) -> list[dict]:
 
 
 def run(out_dir: Path, quick: bool) -> list[dict]:
-    from fcol.testing.reference import compare, height_reference
+    from fcol.testing.reference import compare
 
     surf = fcol.Function(EXPR, domain=DOMAIN)
     rows: list[dict] = []
@@ -477,7 +488,7 @@ def run(out_dir: Path, quick: bool) -> list[dict]:
             ref = None
             if (w, h) == (W, H):
                 t0 = time.perf_counter()
-                ref = height_reference(f_np, grad_np, DOMAIN, view, w, h)
+                ref = bench_reference(vname, w, h)
                 rows.append(dict(method="reference (exact hit)", view=vname, size=f"{w}x{h}",
                                  ms=1e3 * (time.perf_counter() - t0)))
             for label, opts in VARIANTS.items():
